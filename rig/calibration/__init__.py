@@ -1,0 +1,1 @@
+"""Calibration math: pure functions on arrays (Zhang, IEEE TIE 2015, and beyond)."""

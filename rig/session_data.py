@@ -1,0 +1,140 @@
+"""A measured session in memory: the arrays behind the interchange layout (`session-csv.md`).
+
+Importers (interchange CSV, the SQLite store) build a `SessionData`; the calibration, attitude and
+discrepancy code read hold statistics and move streams from it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rig.rotations import matrix_from_quat, quat_from_matrix
+
+SENSOR_UNITS = {"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"}
+
+
+@dataclass
+class HoldStats:
+    """Per-hold statistics of one sensor, one row per hold in time order."""
+
+    step: np.ndarray        # (k,) orientation index j
+    mean: np.ndarray        # (k, 3) raw counts
+    std: np.ndarray         # (k, 3)
+    count: np.ndarray       # (k,)
+    R: np.ndarray           # (k, 3, 3) fixture -> world reference at the hold
+    t_start: np.ndarray     # (k,)
+    t_end: np.ndarray       # (k,)
+    temp_c: np.ndarray | None = None      # (k,) mean board temperature
+    vsupply_v: np.ndarray | None = None   # (k,)
+
+
+@dataclass
+class MoveStream:
+    """Raw samples of one sensor from the last sample of hold j to the first of hold j+1."""
+
+    step: int
+    t: np.ndarray           # (m,)
+    y: np.ndarray           # (m, 3) raw counts
+    R_start: np.ndarray     # (3, 3) fixture -> world at hold j
+    R_end: np.ndarray       # (3, 3) at hold j+1
+
+    @property
+    def known_rotation(self) -> np.ndarray:
+        """R_j^T R_{j+1}: the rotation the integrated gyro must reproduce (conventions.md)."""
+        return self.R_start.T @ self.R_end
+
+
+@dataclass
+class SessionData:
+    """Row-aligned arrays of a session; a sensor's cells are NaN where it had no new sample."""
+
+    t: np.ndarray                       # (n,) s
+    is_move: np.ndarray                 # (n,) bool: phase == 'move'
+    step: np.ndarray                    # (n,) int
+    q_ref: np.ndarray                   # (n, 4) fixture -> world, scalar first
+    raw: dict[str, np.ndarray]          # sensor -> (n, 3) float, NaN where empty
+    columns: dict[str, list[str]]       # sensor -> raw column names in sensor-axis order
+    gravity: float = 9.80665
+    field_uT: float | None = None
+    sample_rate_hz: float | None = None
+    table_deg: np.ndarray | None = None  # (n, 2) outer, inner
+    temp_c: np.ndarray | None = None
+    vsupply_v: np.ndarray | None = None
+    meta: dict = field(default_factory=dict)
+    source: str = "<memory>"
+
+    @property
+    def sensors(self) -> list[str]:
+        return list(self.raw)
+
+    def hold_steps(self) -> np.ndarray:
+        return np.unique(self.step[~self.is_move])
+
+    def hold_rows(self, settle_s: float = 0.0) -> list[tuple[int, np.ndarray]]:
+        """(step, row indices) of each hold in time order, dropping `settle_s` at its start.
+
+        A hold visited twice (a repeated hold after a bump) counts once: its last visit.
+        """
+        rows = np.flatnonzero(~self.is_move)
+        if rows.size == 0:
+            return []
+        breaks = np.flatnonzero((np.diff(rows) != 1) | (np.diff(self.step[rows]) != 0)) + 1
+        out: dict[int, np.ndarray] = {}
+        for seg in np.split(rows, breaks):
+            if settle_s > 0:
+                seg = seg[self.t[seg] >= self.t[seg[0]] + settle_s]
+            if seg.size:
+                out[int(self.step[seg[0]])] = seg
+        return sorted(out.items(), key=lambda kv: self.t[kv[1][0]])
+
+    def holds(self, sensor: str, settle_s: float = 0.0) -> HoldStats:
+        y = self.raw[sensor]
+        steps, means, stds, counts, Rs, t0, t1, temps, vs = [], [], [], [], [], [], [], [], []
+        for j, idx in self.hold_rows(settle_s):
+            vals = y[idx]
+            vals = vals[~np.isnan(vals).any(axis=1)]
+            if len(vals) == 0:
+                continue
+            steps.append(j)
+            means.append(vals.mean(axis=0))
+            stds.append(vals.std(axis=0, ddof=1) if len(vals) > 1 else np.zeros(3))
+            counts.append(len(vals))
+            Rs.append(mean_rotation(self.q_ref[idx]))
+            t0.append(self.t[idx[0]])
+            t1.append(self.t[idx[-1]])
+            temps.append(np.nanmean(self.temp_c[idx]) if self.temp_c is not None else np.nan)
+            vs.append(np.nanmean(self.vsupply_v[idx]) if self.vsupply_v is not None else np.nan)
+        return HoldStats(np.array(steps, dtype=int), np.array(means).reshape(-1, 3),
+                         np.array(stds).reshape(-1, 3), np.array(counts, dtype=int),
+                         np.array(Rs).reshape(-1, 3, 3), np.array(t0), np.array(t1),
+                         np.array(temps) if self.temp_c is not None else None,
+                         np.array(vs) if self.vsupply_v is not None else None)
+
+    def moves(self, sensor: str) -> list[MoveStream]:
+        """Streams between consecutive holds (in time order), each including its bounding samples."""
+        y = self.raw[sensor]
+        have = ~np.isnan(y).any(axis=1)
+        holds = self.hold_rows()
+        out = []
+        for (j, a), (k, b) in zip(holds[:-1], holds[1:]):
+            lo, hi = a[-1], b[0]
+            idx = np.arange(lo, hi + 1)
+            idx = idx[have[idx]]
+            if len(idx) < 2:
+                continue
+            out.append(MoveStream(j, self.t[idx], y[idx], mean_rotation(self.q_ref[a]), mean_rotation(self.q_ref[b])))
+        return out
+
+
+def mean_rotation(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix of the (sign-aligned, normalised) mean of scalar-first quaternions."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    q = np.where((q @ q[0])[:, None] < 0, -q, q)
+    m = q.mean(axis=0)
+    return matrix_from_quat(m / np.linalg.norm(m))
+
+
+def quats(R: np.ndarray) -> np.ndarray:
+    return quat_from_matrix(R)
