@@ -1,0 +1,139 @@
+"""ITG-3200 3-axis digital gyroscope over I2C.
+
+Register map, ID check, reset and scale follow Linux `itg3200_core.c` / `itg3200.h` (registers.md section 3),
+except that register addresses are sent plain: the kernel sets bit 7, which the chip ignores, but a
+datasheet-faithful device need not.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import time
+from typing import Any, Callable
+
+from drivers._regs import I2cRegisters, choose
+from drivers.errors import SensorFault, WrongIdentity, wrap_os_error
+
+WHO_AM_I, SMPLRT_DIV, DLPF_FS, INT_CFG, INT_STATUS = 0x00, 0x15, 0x16, 0x17, 0x1A
+TEMP_OUT_H, GYRO_XOUT_H, PWR_MGM = 0x1B, 0x1D, 0x3E
+NAMES = {
+    WHO_AM_I: "WHO_AM_I", SMPLRT_DIV: "SMPLRT_DIV", DLPF_FS: "DLPF_FS", INT_CFG: "INT_CFG",
+    INT_STATUS: "INT_STATUS", TEMP_OUT_H: "TEMP_OUT_H", 0x1C: "TEMP_OUT_L", GYRO_XOUT_H: "GYRO_XOUT_H",
+    0x1E: "GYRO_XOUT_L", 0x1F: "GYRO_YOUT_H", 0x20: "GYRO_YOUT_L", 0x21: "GYRO_ZOUT_H", 0x22: "GYRO_ZOUT_L",
+    PWR_MGM: "PWR_MGM",
+}
+
+ID_BITS = 0x34                      # WHO_AM_I bits 6:1
+H_RESET = 0x80
+CLK_PLL_X = 0x01
+FS_SEL_2000 = 0x18                  # FS_SEL = 3, the only documented full scale
+INT_LATCH = 0x20                    # LATCH_INT_EN: level held until cleared
+INT_ANYRD_2CLEAR = 0x10
+ITG_RDY_EN, RAW_RDY_EN = 0x04, 0x01
+INT_CFG_VALUE = INT_LATCH | INT_ANYRD_2CLEAR | ITG_RDY_EN | RAW_RDY_EN
+ITG_RDY, RAW_DATA_RDY = 0x04, 0x01
+
+DLPF_CODES = {256: 0, 188: 1, 98: 2, 42: 3, 20: 4, 10: 5, 5: 6}
+LSB_PER_DPS = 14.375
+RANGE_DPS = 2000.0
+RESET_WAIT_S = 1.5e-3               # kernel: 1 ms PLL settling + margin
+READY_POLLS, READY_POLL_S = 20, 5e-3  # up to 100 ms for ITG_RDY (start-up ~50 ms [U])
+
+_XYZ = struct.Struct(">hhh")
+_T = struct.Struct(">h")
+
+
+def internal_rate_hz(dlpf_hz: int) -> int:
+    """8 kHz internal sampling with DLPF_CFG = 0 (256 Hz), else 1 kHz (datasheet 8.2, kernel)."""
+    return 8000 if DLPF_CODES[dlpf_hz] == 0 else 1000
+
+
+def exact_rates(dlpf_hz: int) -> dict[float, int]:
+    """Output rates reachable exactly as internal/(SMPLRT_DIV+1), SMPLRT_DIV 0..255, mapped to the divider."""
+    internal = internal_rate_hz(dlpf_hz)
+    return {internal // (d + 1): d for d in range(256) if internal % (d + 1) == 0}
+
+
+class ITG3200:
+    """ITG-3200 at +-2000 deg/s with the PLL on the X gyro as clock.
+
+    INT_CFG latches the interrupt and lets any read clear it: a polled or level-triggered host never misses the
+    50 us pulse the default mode gives, and reading the sample acknowledges it, so `data_ready()` means "an
+    unread sample is waiting".
+    """
+
+    chip = "ITG-3200"
+
+    def __init__(self, bus: Any, address: int = 0x68, *, rate_hz: float = 100, dlpf_hz: int = 42,
+                 sleep: Callable[[float], None] = time.sleep) -> None:
+        self.regs = I2cRegisters(bus, address, self.chip, NAMES)
+        self.bus, self.address, self.sleep = bus, address, sleep
+        self._dlpf_code = choose(dlpf_hz, DLPF_CODES, "low-pass bandwidth", self.chip, " Hz")
+        self._divider = choose(rate_hz, exact_rates(dlpf_hz), f"sample rate with DLPF {dlpf_hz} Hz",
+                               self.chip, " Hz")
+        self.rate_hz, self.dlpf_hz = float(rate_hz), int(dlpf_hz)
+        self.started = False
+
+    def start(self) -> None:
+        """ID -> H_RESET -> INT_CFG -> CLK_SEL PLL X -> DLPF_FS -> SMPLRT_DIV -> wait ITG_RDY -> verify DLPF_FS.
+
+        INT_CFG (with ITG_RDY_EN) is written before the clock switch so the PLL-ready flag cannot be missed.
+        """
+        who = self.regs.read(WHO_AM_I)
+        if (who >> 1) & 0x3F != ID_BITS:
+            raise WrongIdentity(f"{self.regs.where(WHO_AM_I)}: read 0x{who:02X}, bits 6:1 should be "
+                                f"0x{ID_BITS:02X}")
+        self.regs.write(PWR_MGM, H_RESET)
+        self.sleep(RESET_WAIT_S)
+        self.regs.write(INT_CFG, INT_CFG_VALUE)
+        self.regs.write(PWR_MGM, CLK_PLL_X)
+        self.regs.write(DLPF_FS, FS_SEL_2000 | self._dlpf_code)
+        self.regs.write(SMPLRT_DIV, self._divider)
+        self._wait_pll_ready()
+        dlpf_fs = self.regs.read(DLPF_FS)
+        if dlpf_fs != FS_SEL_2000 | self._dlpf_code:
+            raise SensorFault(f"{self.regs.where(DLPF_FS)}: read back 0x{dlpf_fs:02X}, wrote "
+                              f"0x{FS_SEL_2000 | self._dlpf_code:02X}")
+        self.started = True
+
+    def _wait_pll_ready(self) -> None:
+        for _ in range(READY_POLLS):
+            if self.regs.read(INT_STATUS) & ITG_RDY:
+                return
+            self.sleep(READY_POLL_S)
+        raise SensorFault(f"{self.regs.where(INT_STATUS)}: ITG_RDY (PLL ready) not set after "
+                          f"{READY_POLLS} polls {READY_POLL_S * 1e3:g} ms apart")
+
+    def set_rate(self, rate_hz: float) -> None:
+        """Change the output rate; only rates exact for the current DLPF setting are allowed."""
+        divider = choose(rate_hz, exact_rates(self.dlpf_hz), f"sample rate with DLPF {self.dlpf_hz} Hz",
+                         self.chip, " Hz")
+        if self.started:
+            self.regs.write(SMPLRT_DIV, divider)
+        self._divider, self.rate_hz = divider, float(rate_hz)
+
+    def read_raw(self) -> tuple[int, int, int]:
+        """One 6-byte burst from GYRO_XOUT_H: big-endian signed X, Y, Z at 14.375 LSB per deg/s."""
+        try:
+            return _XYZ.unpack(bytes(self.bus.read_i2c_block_data(self.address, GYRO_XOUT_H, 6)))
+        except OSError as exc:
+            raise wrap_os_error(exc, self.regs.where(GYRO_XOUT_H), "6-byte burst read") from exc
+
+    def read_temperature(self) -> float:
+        """Die temperature in degC: (raw + 23000) / 280 (kernel offset and scale)."""
+        (raw,) = _T.unpack(self.regs.read_block(TEMP_OUT_H, 2))
+        return (raw + 23000) / 280.0
+
+    def data_ready(self) -> bool:
+        """INT_STATUS.RAW_DATA_RDY (this read also clears the latched flag)."""
+        return bool(self.regs.read(INT_STATUS) & RAW_DATA_RDY)
+
+    def settings(self) -> dict:
+        """Snapshot for session metadata; `scale` is rad/s per count."""
+        return {
+            "chip": self.chip, "interface": "i2c", "address": self.address,
+            "range": RANGE_DPS, "range_unit": "deg/s",
+            "rate_hz": self.rate_hz, "dlpf_hz": self.dlpf_hz,
+            "scale": math.radians(1.0 / LSB_PER_DPS), "scale_unit": "rad/s per LSB",
+        }

@@ -1,0 +1,1 @@
+"""Procedures compose devices (through small typed protocols) into calibration sessions and trials."""

@@ -1,0 +1,1 @@
+"""Files in and out: the interchange session layout, imu_tk ASCII, the calibration JSON."""
