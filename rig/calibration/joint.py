@@ -1,0 +1,164 @@
+"""Joint B and H from the known hold rotations (beyond Zhang 2015).
+
+The two-step method takes B from the ellipsoid alone, which ignores what the rotations say about B; with
+few holds the ellipsoid centre is the weakest link. Here every hold is used for everything:
+
+    y_k = H^-1 R_k^T v + B + e_k,      e_k ~ N(0, diag(sigma_k^2)),   |v| = norm,
+
+v the reference (gravity or geomagnetic field) in the world frame, its direction unknown (table not level,
+unknown dip/declination). Start: alternating linear least squares ((H^-1, B) given v; v given H^-1, B),
+then the maximum-likelihood refinement by `scipy.optimize.least_squares` with the analytic Jacobian,
+weights 1/sigma_k with sigma_k = y_std_k / sqrt(count_k), and the parameter covariance (J^T J)^-1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from rig.calibration.observability import tangent_basis, validate_holds
+from rig.calibration.result import TriadCalibration
+from rig.calibration.twostep import calibrate_two_step
+from rig.errors import CalibrationError
+
+MIN_ORIENTATIONS = 6
+N_PARAMS = 14  # B (3) + H (9) + direction of v (2)
+
+
+def calibrate_joint(y_means: np.ndarray, R: np.ndarray, norm: float, *, y_std: np.ndarray | None = None,
+                    counts: np.ndarray | None = None, reference_world=None, refine_ml: bool = True,
+                    full_scale: float | None = None, max_alternations: int = 200,
+                    tol: float = 1e-12) -> TriadCalibration:
+    """Joint least-squares / maximum-likelihood B and H; see the module docstring.
+
+    reference_world: starting guess for v's direction (e.g. (0, 0, 1) for a level accelerometer); without
+    it the start is the two-step solution (needs >= 9 holds). The direction is always estimated.
+    residual_rms: RMS of |u_k - R_k^T v| (calibrated units). With y_std the covariance is scaled by the
+    reduced chi-square when that exceeds 1 (unmodelled errors), else taken as is; without y_std by the
+    residual variance. extra: reference_world (fitted v), reduced_chi2, v_std_deg.
+    """
+    y, R = validate_holds(y_means, R, min_orientations=MIN_ORIENTATIONS, full_scale=full_scale, what="joint")
+    sigma = _hold_sigma(y_std, counts, len(y))
+    v = _start_reference(y, R, norm, reference_world, full_scale)
+    K, B, v, alternations, converged = _alternate(y, R, v, norm, max_alternations, tol)
+    warnings = [] if converged else [f"joint: alternating least squares did not converge in {alternations} rounds"]
+    result = TriadCalibration(B=B, H=np.linalg.inv(K), method="joint", iterations=alternations,
+                              converged=converged, warnings=warnings)
+    if refine_ml:
+        result = _refine_ml(y, R, norm, sigma, result, v, y_std is not None)
+    else:
+        result.extra["reference_world"] = v.tolist()
+    _fix_sign(result)
+    v_fit = np.asarray(result.extra["reference_world"])
+    u = result.apply(y)
+    misfit = u - np.einsum("kji,j->ki", R, v_fit)
+    result.residual_rms = float(np.sqrt(np.mean(np.sum(misfit**2, axis=1))))
+    result.extra["norm_rms"] = float(np.sqrt(np.mean((np.linalg.norm(u, axis=1) - norm) ** 2)))
+    result.extra["residual_kind"] = "rms |u_k - R_k^T v|"
+    return result
+
+
+def _hold_sigma(y_std, counts, n: int) -> np.ndarray:
+    if y_std is None:
+        return np.ones((n, 3))
+    s = np.broadcast_to(np.asarray(y_std, dtype=float), (n, 3)).copy()
+    if counts is not None:
+        c = np.asarray(counts, dtype=float).reshape(n)
+        if np.any(~(c >= 1)):
+            raise CalibrationError(f"joint: sample counts must be >= 1, holds {np.flatnonzero(~(c >= 1)).tolist()} are not")
+        s = s / np.sqrt(c)[:, None]
+    bad = np.flatnonzero(~(np.isfinite(s).all(axis=1) & (s > 0).all(axis=1)))
+    if bad.size:
+        raise CalibrationError(f"joint: y_std must be finite and > 0; holds {bad.tolist()} are not")
+    return s
+
+
+def _start_reference(y, R, norm, reference_world, full_scale) -> np.ndarray:
+    if reference_world is not None:
+        v = np.asarray(reference_world, dtype=float)
+        return norm * v / np.linalg.norm(v)
+    if len(y) < 9:
+        raise CalibrationError(f"joint: {len(y)} holds; without reference_world the start needs >= 9 (two-step)")
+    return np.asarray(calibrate_two_step(y, R, norm, full_scale=full_scale).extra["reference_world"])
+
+
+def _alternate(y, R, v, norm, max_rounds: int, tol: float):
+    """(K = H^-1, B) | v and v | (K, B), both linear least squares, |v| kept at norm."""
+    n = len(y)
+    K = np.eye(3)
+    X1 = np.ones((n, 4))
+    for it in range(1, max_rounds + 1):
+        X1[:, :3] = np.einsum("kji,j->ki", R, v)
+        if np.linalg.matrix_rank(X1, tol=1e-6 * np.abs(X1).max()) < 4:
+            raise CalibrationError("joint: the reference directions R_k^T v are coplanar; B and H are not observable "
+                                   "(see observability.check_schedule)")
+        P, *_ = np.linalg.lstsq(X1, y, rcond=None)
+        K_new, B = P[:3].T, P[3]
+        A = np.einsum("ab,kcb->kac", K_new, R).reshape(3 * n, 3)   # rows of K R_k^T
+        v, *_ = np.linalg.lstsq(A, (y - B).reshape(3 * n), rcond=None)
+        v *= norm / np.linalg.norm(v)
+        change = np.linalg.norm(K_new - K) / np.linalg.norm(K_new)
+        K = K_new
+        if change < tol:
+            return K, B, v, it, True
+    X1[:, :3] = np.einsum("kji,j->ki", R, v)
+    P, *_ = np.linalg.lstsq(X1, y, rcond=None)
+    return P[:3].T, P[3], v, max_rounds, False
+
+
+def _refine_ml(y, R, norm, sigma, start: TriadCalibration, v0, weighted: bool) -> TriadCalibration:
+    n = len(y)
+    E = tangent_basis(v0) * norm
+
+    def unpack(p):
+        w = v0 + E @ p[12:14]
+        return p[0:3], p[3:12].reshape(3, 3), norm * w / np.linalg.norm(w), w
+
+    def residuals(p):
+        B, H, v, _ = unpack(p)
+        pred = np.einsum("kji,j->ki", R, v) @ np.linalg.inv(H).T + B
+        return ((y - pred) / sigma).ravel()
+
+    def jacobian(p):
+        B, H, v, w = unpack(p)
+        K = np.linalg.inv(H)
+        s = np.einsum("kji,j->ki", R, v) @ K.T                       # K x_k
+        J = np.empty((n, 3, N_PARAMS))
+        J[:, :, 0:3] = -np.eye(3)
+        J[:, :, 3:12] = np.einsum("ca,kb->kcab", K, s).reshape(n, 3, 9)
+        wn = np.linalg.norm(w)
+        dv = norm * (np.eye(3) - np.outer(w, w) / wn**2) / wn @ E     # (3, 2)
+        J[:, :, 12:14] = -np.einsum("ca,kba,bd->kcd", K, R, dv)
+        return (J / sigma[:, :, None]).reshape(3 * n, N_PARAMS)
+
+    p0 = np.concatenate([start.B, start.H.ravel(), np.zeros(2)])
+    sol = least_squares(residuals, p0, jac=jacobian, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    B, H, v, _ = unpack(sol.x)
+    dof = 3 * n - N_PARAMS
+    chi2_red = float(2 * sol.cost / dof) if dof > 0 else float("nan")
+    out = TriadCalibration(B=B, H=H, method="joint-ml", iterations=start.iterations + int(sol.nfev),
+                           converged=bool(sol.success) and start.converged, warnings=list(start.warnings))
+    if not sol.success:
+        out.warnings.append(f"joint-ml: least_squares did not converge ({sol.message})")
+    J = sol.jac
+    try:
+        cov = np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        out.warnings.append("joint-ml: singular information matrix, no covariance (schedule not observable)")
+        cov = None
+    if cov is not None and dof > 0:
+        cov *= max(chi2_red, 1.0) if weighted else chi2_red
+        out.B_cov, out.H_cov = cov[0:3, 0:3], cov[3:12, 3:12]
+        out.B_std = np.sqrt(np.diag(out.B_cov))
+        out.H_std = np.sqrt(np.diag(out.H_cov)).reshape(3, 3)
+        out.extra["v_std_deg"] = float(np.degrees(np.sqrt(np.trace(cov[12:14, 12:14]) / 2)))
+    out.extra["reference_world"] = v.tolist()
+    out.extra["reduced_chi2"] = chi2_red
+    return out
+
+
+def _fix_sign(result: TriadCalibration) -> None:
+    """(H, v) and (-H, -v) predict the same readings: keep det(H) > 0 (conventions.md)."""
+    if np.linalg.det(result.H) < 0:
+        result.H = -result.H
+        result.extra["reference_world"] = (-np.asarray(result.extra["reference_world"])).tolist()

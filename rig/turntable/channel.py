@@ -1,0 +1,106 @@
+"""One Modbus link with bounded retries and exponential backoff through the injected clock.
+
+pymodbus's own retries are off (see `url.make_client`): a blind re-send of a COMMAND whose response was
+lost could start a second move, so only the caller knows whether a write may be repeated.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+
+from pymodbus.exceptions import ConnectionException, ModbusException
+
+from rig.clock import Clock
+from rig.turntable.errors import CommunicationError, ModbusExceptionError, ResponseLost
+from rig.turntable.url import LinkAddress, make_client
+
+log = logging.getLogger(__name__)
+
+
+class ModbusChannel:
+    """FC03 / FC06 / FC16 to one device id; raises `ModbusExceptionError` or `CommunicationError`."""
+
+    def __init__(self, address: LinkAddress, device_id: int, clock: Clock, timeout: float, retries: int,
+                 backoff_s: float = 0.05, backoff_max_s: float = 1.0) -> None:
+        if retries < 0:
+            raise ValueError(f"retries must be >= 0, got {retries}")
+        if not timeout > 0:
+            raise ValueError(f"timeout must be positive, got {timeout}")
+        self.address, self.device_id, self.clock = address, device_id, clock
+        self.timeout, self.retries = timeout, retries
+        self.backoff_s, self.backoff_max_s = backoff_s, backoff_max_s
+        self.client = None
+        self.requests = 0
+        self.failures = 0
+
+    @property
+    def is_open(self) -> bool:
+        return self.client is not None
+
+    def open(self) -> None:
+        self.client = make_client(self.address, self.timeout)
+        for attempt in range(self.retries + 1):
+            if self.client.connect():
+                return
+            self._backoff(attempt, f"connect to {self.address}")
+        self.client = None
+        raise CommunicationError(f"cannot connect to turntable at {self.address} "
+                                 f"after {self.retries + 1} attempts")
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+
+    def read(self, address: int, count: int, register: str) -> list[int]:
+        def call():
+            return self.client.read_holding_registers(address, count=count, device_id=self.device_id)
+        rr = self._transact(3, address, register, call, idempotent=True, count=count)
+        return list(rr.registers)
+
+    def write(self, address: int, words: list[int], register: str, idempotent: bool = True) -> None:
+        """FC06 for one word, FC16 for several."""
+        if len(words) == 1:
+            fc, call = 6, lambda: self.client.write_register(address, words[0], device_id=self.device_id)
+        else:
+            fc, call = 16, lambda: self.client.write_registers(address, words, device_id=self.device_id)
+        self._transact(fc, address, register, call, idempotent=idempotent)
+
+    def _transact(self, fc: int, address: int, register: str, call: Callable, idempotent: bool,
+                  count: int | None = None):
+        if self.client is None:
+            raise CommunicationError(f"turntable link to {self.address} is not open")
+        attempts = self.retries + 1 if idempotent else 1
+        problem = ""
+        for attempt in range(attempts):
+            self.requests += 1
+            try:
+                rr = call()
+            except (ModbusException, OSError) as exc:
+                problem = f"{type(exc).__name__}: {exc}"
+                self._recover(exc)
+            else:
+                if rr.isError():
+                    raise ModbusExceptionError(rr.exception_code, fc, register, address)
+                if count is None or len(rr.registers) == count:
+                    return rr
+                problem = f"response has {len(rr.registers)} registers, asked for {count}"
+            self.failures += 1
+            if attempt + 1 < attempts:
+                self._backoff(attempt, f"FC{fc:02d} {register} @0x{address:04X} ({problem})")
+        where = f"FC{fc:02d} {register} @0x{address:04X} on {self.address}"
+        if not idempotent:
+            raise ResponseLost(f"{where}: no valid response ({problem}); not re-sent")
+        raise CommunicationError(f"{where}: no valid response after {attempts} attempts ({problem})")
+
+    def _recover(self, exc: Exception) -> None:
+        """Drop a TCP connection after a failure so a late reply cannot be taken for the next one's
+        (RTU clients flush stale input before each send instead)."""
+        if not self.address.is_serial_client or isinstance(exc, ConnectionException):
+            self.client.close()
+
+    def _backoff(self, attempt: int, what: str) -> None:
+        delay = min(self.backoff_s * 2 ** attempt, self.backoff_max_s)
+        log.warning("turntable: %s failed, retry %d/%d in %.3f s", what, attempt + 1, self.retries, delay)
+        self.clock.sleep(delay)
