@@ -1,0 +1,129 @@
+"""Sampling every sensor of a board on one tick grid, on whatever clock the rig runs.
+
+Ticks are scheduled on absolute times (t0 + k/rate) so waiting for data-ready never shifts the grid;
+the magnetometer is read every `mag_every` ticks and its other rows stay empty (NaN), as in the
+interchange layout. Temperature and supply are read at a few Hz and carried forward.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from procedures.protocols import Board
+from rig.clock import Clock, sleep_until
+
+
+@dataclass
+class Recording:
+    t: np.ndarray
+    samples: dict[str, np.ndarray]
+    temp_c: np.ndarray | None
+    vsupply_v: np.ndarray | None
+    late_reads: int = 0
+
+
+@dataclass
+class Sampler:
+    board: Board
+    clock: Clock
+    rate_hz: float = 100.0
+    mag_every: int = 2
+    aux_every: int = 10
+    t0: float = field(default=0.0)
+    _k: int = 0
+    late_reads: int = 0
+
+    def __post_init__(self) -> None:
+        self.dt = 1.0 / self.rate_hz
+        self.t0 = self.clock.now()
+        self._names = list(self.board.triads)
+        self._ready = {n: getattr(tr, "data_ready", None) for n, tr in self.board.triads.items()}
+        self._temp = self._supply = float("nan")
+        self._begin()
+
+    def _begin(self) -> None:
+        self._t: list[float] = []
+        self._rows: dict[str, list] = {n: [] for n in self._names}
+        self._temps: list[float] = []
+        self._supplies: list[float] = []
+
+    def tick(self) -> None:
+        t = self.t0 + self._k * self.dt
+        sleep_until(self.clock, t)
+        nan3 = (np.nan, np.nan, np.nan)
+        for name in self._names:
+            if name == "mag" and self._k % self.mag_every:
+                self._rows[name].append(nan3)
+                continue
+            self._wait_ready(name)
+            self._rows[name].append(self.board.triads[name].read_raw())
+        if self._k % self.aux_every == 0:
+            temp, supply = self.board.read_temperature(), self.board.read_supply()
+            self._temp = float("nan") if temp is None else temp
+            self._supply = float("nan") if supply is None else supply
+        self._temps.append(self._temp)
+        self._supplies.append(self._supply)
+        self._t.append(t)
+        self._k += 1
+
+    def _wait_ready(self, name: str) -> None:
+        ready = self._ready[name]
+        if ready is None:
+            return
+        for _ in range(4):
+            if ready():
+                return
+            self.clock.sleep(self.dt / 8)
+        self.late_reads += 1
+
+    def run(self, ticks: int) -> None:
+        for _ in range(ticks):
+            self.tick()
+
+    def run_for(self, dt: float) -> None:
+        """Sample on the grid until `dt` seconds from now have passed (at least one tick)."""
+        end = self.clock.now() + dt
+        self.tick()
+        while self.now < end:
+            self.tick()
+
+    def take(self) -> Recording:
+        """Everything since the last take, as arrays; the tick grid continues."""
+        rec = Recording(np.array(self._t), {n: np.array(v, dtype=float).reshape(-1, 3) for n, v in self._rows.items()},
+                        None if np.isnan(self._temps).all() else np.array(self._temps),
+                        None if np.isnan(self._supplies).all() else np.array(self._supplies), self.late_reads)
+        self._begin()
+        return rec
+
+    @property
+    def now(self) -> float:
+        return self.t0 + self._k * self.dt
+
+
+def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 100.0, k_sigma: float = 8.0,
+                    quantum: float = 2.0) -> str | None:
+    """Says which sensor and axis moved during a hold (someone bumped the table), or None.
+
+    The hold is cut into windows; a static hold has window means that agree to within their standard
+    error (plus a couple of counts of quantisation); a bump shows as a window far off the others.
+    """
+    n_win = max(int(window_s * rate_hz), 2)
+    for name in ("gyro", "accel"):
+        y = rec.samples.get(name)
+        if y is None:
+            continue
+        y = y[~np.isnan(y).any(axis=1)]
+        m = len(y) // n_win
+        if m < 2:
+            continue
+        w = y[: m * n_win].reshape(m, n_win, 3)
+        means = w.mean(axis=1)
+        se = np.median(w.std(axis=1), axis=0) / np.sqrt(n_win)
+        spread = means.max(axis=0) - means.min(axis=0)
+        bad = spread > k_sigma * se + quantum
+        if bad.any():
+            axis = "xyz"[int(np.argmax(spread - k_sigma * se))]
+            return f"{name} {axis}: window means spread {spread.max():.1f} counts (limit {float((k_sigma * se + quantum).max()):.1f})"
+    return None

@@ -1,0 +1,112 @@
+"""The calibration session: move, verify arrival and settle, hold and record, repeat; moves recorded too.
+
+Every hold is committed to the store in its own transaction before the table moves on, so a crash loses
+at most the hold in progress, and `resume` continues from the next orientation. The table is always
+left safe (stopped, disabled) whatever happens, by the caller's `finally` around `run_session`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from procedures.acquisition import Recording, Sampler, hold_has_motion
+from procedures.planning import Orientation
+from procedures.protocols import Board, Store, Table
+from rig.clock import Clock
+from rig.rotations import TableGeometry, quat_from_matrix
+
+Progress = Callable[[int, int, str], None]
+
+
+@dataclass
+class MotionSettings:
+    speed_dps: float = 60.0
+    accel_dps2: float = 120.0
+    tolerance_deg: float = 0.01
+    settle_s: float = 0.3
+    poll_every: int = 10
+    hold_s: float = 5.0
+    rate_hz: float = 100.0
+    mag_every: int = 2
+    max_hold_attempts: int = 3
+
+
+class HoldFailed(RuntimeError):
+    """A hold kept moving after every allowed attempt."""
+
+
+def position_table(table: Table, clock: Clock, target: Orientation, m: MotionSettings) -> None:
+    """An unrecorded move (to the start, or back to the last hold on resume)."""
+    table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,
+                  tolerance_deg=m.tolerance_deg, settle_s=m.settle_s)
+
+
+def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule: list[Orientation],
+                geometry: TableGeometry, m: MotionSettings, *, start_step: int = 0,
+                progress: Progress | None = None) -> None:
+    """Record holds `start_step..` of `schedule` and the moves between them into `store`."""
+    n = len(schedule)
+    table.enable()
+    first = schedule[max(start_step - 1, 0)]
+    if progress:
+        progress(start_step, n, "positioning")
+    position_table(table, clock, first, m)
+    sampler = Sampler(board, clock, m.rate_hz, m.mag_every)
+    for j in range(start_step, n):
+        if j > 0:
+            if progress:
+                progress(j, n, "move")
+            _record_move(table, sampler, store, geometry, schedule[j], j - 1, m)
+        if progress:
+            progress(j, n, "hold")
+        _record_hold(table, sampler, store, geometry, schedule[j], j, m)
+    if progress:
+        progress(n, n, "done")
+
+
+def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
+                 step: int, m: MotionSettings) -> None:
+    t_pos, pos = [sampler.now], [table.positions()]
+
+    def log_positions(statuses: list) -> None:
+        t_pos.append(sampler.now)
+        pos.append(tuple(st.position_deg for st in sorted(statuses, key=lambda st: st.axis)))
+
+    table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,
+                  tolerance_deg=m.tolerance_deg, settle_s=m.settle_s, on_poll=log_positions, wait=sampler.run_for)
+    rec = sampler.take()
+    t_pos.append(sampler.now)
+    pos.append(table.positions())
+    table_deg = np.column_stack([np.interp(rec.t, t_pos, np.asarray(pos)[:, i]) for i in range(2)])
+    store.append_move(step, t=rec.t, samples=rec.samples, q_ref=quat_from_matrix(geometry.rotation(*table_deg.T)),
+                      table_deg=table_deg, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v)
+
+
+def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
+                 step: int, m: MotionSettings) -> Recording:
+    ticks = int(round(m.hold_s * m.rate_hz))
+    for attempt in range(1, m.max_hold_attempts + 1):
+        before = table.positions()
+        sampler.run(ticks)
+        after = table.positions()
+        rec = sampler.take()
+        moved = hold_has_motion(rec, rate_hz=m.rate_hz)
+        drift = max(abs(a - b) for a, b in zip(before, after))
+        if drift > m.tolerance_deg:
+            moved = f"encoders moved {drift:.4f} deg during the hold"
+        if moved is None or attempt == m.max_hold_attempts:
+            measured = tuple(0.5 * (a + b) for a, b in zip(before, after))
+            table_deg = np.tile(measured, (rec.t.size, 1))
+            q = quat_from_matrix(geometry.rotation(*measured))
+            if moved is not None:
+                store.log_event("hold-motion", f"hold {step} still moving after {attempt} attempts: {moved}",
+                                float(rec.t[-1]))
+            store.append_hold(step, t=rec.t, samples=rec.samples, q_ref=np.tile(q, (rec.t.size, 1)),
+                              table_deg=table_deg, commanded_deg=(target.outer_deg, target.inner_deg),
+                              measured_deg=measured, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, attempt=attempt)
+            return rec
+        store.log_event("hold-repeated", f"hold {step} attempt {attempt}: {moved}", float(rec.t[-1]))
+    raise HoldFailed(f"hold {step} could not be recorded")

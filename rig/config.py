@@ -1,0 +1,109 @@
+"""Rig configuration (TOML): the board, the turntable, the table geometry, the schedule, G and M, limits.
+
+The same file describes a real rig and, with `--sim`, the simulated one built from the fakes; the choice
+between real and fake is made in `rig.assembly`, never inside a driver.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import asdict, dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from rig.rotations import TableGeometry
+
+BOARDS = ("bsn", "wearable")
+
+
+@dataclass
+class TurntableConfig:
+    url: str = "tcp://127.0.0.1:502"
+    profile: str | None = None
+    speed_dps: float = 60.0
+    accel_dps2: float = 120.0
+    tolerance_deg: float = 0.01
+    settle_s: float = 0.3
+    poll_every: int = 10               # encoder/status poll every N sample ticks during moves
+
+
+@dataclass
+class ScheduleConfig:
+    orientations: int = 20
+    hold_s: float = 5.0
+    rate_hz: float = 100.0
+    mag_every: int = 2
+    max_hold_attempts: int = 3
+
+
+@dataclass
+class RigConfig:
+    serial: str = "UNKNOWN"
+    board: str = "bsn"
+    operator: str = ""
+    turntable: TurntableConfig = field(default_factory=TurntableConfig)
+    geometry: TableGeometry = field(default_factory=TableGeometry)
+    schedule: ScheduleConfig = field(default_factory=ScheduleConfig)
+    gravity_mps2: float = 9.80665
+    field_uT: float = 50.0
+    limits: dict = field(default_factory=dict)
+    chips: dict = field(default_factory=dict)      # per-sensor overrides of the board profile
+    source: str = "<defaults>"
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["geometry"] = self.geometry.to_dict()
+        return d
+
+
+def load_config(path: str | Path | None = None) -> RigConfig:
+    """Read a rig TOML file; with no path, the built-in simulated rig's configuration."""
+    if path is None:
+        text, where = resources.files("rig.configs").joinpath("sim.toml").read_text(), "<built-in sim.toml>"
+    else:
+        where = str(path)
+        try:
+            text = Path(path).read_text()
+        except OSError as e:
+            raise ValueError(f"{where}: cannot read rig configuration: {e.strerror}") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{where}: not valid TOML: {e}") from None
+    return _from_dict(raw, where)
+
+
+def _section(raw: dict, name: str, cls, where: str):
+    data = raw.get(name, {})
+    known = set(cls.__dataclass_fields__)
+    unknown = set(data) - known
+    if unknown:
+        raise ValueError(f"{where}: [{name}] has unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
+    try:
+        return cls(**data)
+    except TypeError as e:
+        raise ValueError(f"{where}: [{name}]: {e}") from None
+
+
+def _from_dict(raw: dict, where: str) -> RigConfig:
+    unit = raw.get("unit", {})
+    board = unit.get("board", "bsn")
+    if board not in BOARDS:
+        raise ValueError(f"{where}: [unit] board = {board!r}; allowed: {list(BOARDS)}")
+    table = raw.get("table", {})
+    geometry = TableGeometry(
+        outer_axis_world=tuple(float(v) for v in table.get("outer_axis_world", (1, 0, 0))),
+        inner_axis_fixture=tuple(float(v) for v in table.get("inner_axis_fixture", (0, 0, 1))),
+        outer_zero_deg=float(table.get("outer_zero_deg", 0.0)),
+        inner_zero_deg=float(table.get("inner_zero_deg", 0.0)))
+    env = raw.get("environment", {})
+    cfg = RigConfig(serial=str(unit.get("serial", "UNKNOWN")), board=board, operator=str(unit.get("operator", "")),
+                    turntable=_section(raw, "turntable", TurntableConfig, where), geometry=geometry,
+                    schedule=_section(raw, "schedule", ScheduleConfig, where),
+                    gravity_mps2=float(env.get("gravity_mps2", 9.80665)), field_uT=float(env.get("field_uT", 50.0)),
+                    limits=dict(raw.get("limits", {})), chips=dict(raw.get("chips", {})), source=where)
+    if not 6 <= cfg.schedule.orientations <= 64:
+        raise ValueError(f"{where}: [schedule] orientations = {cfg.schedule.orientations}; use 10 to 20 (6..64 allowed)")
+    if cfg.schedule.hold_s <= 0 or cfg.schedule.rate_hz <= 0:
+        raise ValueError(f"{where}: [schedule] hold_s and rate_hz must be positive")
+    return cfg
