@@ -8,6 +8,12 @@ import click
 
 # name -> "module:attribute" of a click command
 SUBCOMMANDS = {
+    "calibrate": "rig.commands.calibrate:calibrate",
+    "resume": "rig.commands.calibrate:resume",
+    "plan": "rig.commands.calibrate:plan",
+    "export": "rig.commands.export:export",
+    "repeatability": "rig.commands.repeatability:repeatability",
+    "paper": "rig.commands.paper:paper",
     "table": "rig.turntable.cli:table",
     "sim-turntable": "fixtures.turntable.cli:sim_turntable",
 }

@@ -107,3 +107,16 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
     if cfg.schedule.hold_s <= 0 or cfg.schedule.rate_hz <= 0:
         raise ValueError(f"{where}: [schedule] hold_s and rate_hz must be positive")
     return cfg
+
+
+def config_from_dict(d: dict) -> RigConfig:
+    """Rebuild a configuration from its `to_dict()` snapshot (session metadata)."""
+    g = d.get("geometry", {})
+    geometry = TableGeometry(tuple(g.get("outer_axis_world", (1, 0, 0))), tuple(g.get("inner_axis_fixture", (0, 0, 1))),
+                             float(g.get("outer_zero_deg", 0.0)), float(g.get("inner_zero_deg", 0.0)),
+                             tuple(g.get("inner_tilt_deg", (0, 0, 0))))
+    return RigConfig(serial=d.get("serial", "UNKNOWN"), board=d.get("board", "bsn"), operator=d.get("operator", ""),
+                     turntable=TurntableConfig(**d.get("turntable", {})), geometry=geometry,
+                     schedule=ScheduleConfig(**d.get("schedule", {})), gravity_mps2=d.get("gravity_mps2", 9.80665),
+                     field_uT=d.get("field_uT", 50.0), limits=d.get("limits", {}), chips=d.get("chips", {}),
+                     source=d.get("source", "<session metadata>"))

@@ -1,0 +1,76 @@
+"""A calibration session end to end: store, metadata, the run, the calibration and its outputs.
+
+What is recorded is committed before anything else can fail; the table is made safe in every exit path;
+Ctrl-C marks the session aborted (exit status 130) and `resume` can finish it later.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import platform
+import socket
+from dataclasses import asdict
+from pathlib import Path
+from typing import Callable
+
+from procedures.calibration import MotionSettings, run_session
+from procedures.planning import Orientation, plan_orientations, schedule_rotations
+from rig import __version__
+from rig.config import RigConfig
+
+
+def now_iso() -> str:
+    return dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+def motion_settings(config: RigConfig) -> MotionSettings:
+    t, s = config.turntable, config.schedule
+    return MotionSettings(speed_dps=t.speed_dps, accel_dps2=t.accel_dps2, tolerance_deg=t.tolerance_deg,
+                          settle_s=t.settle_s, poll_every=t.poll_every, hold_s=s.hold_s, rate_hz=s.rate_hz,
+                          mag_every=s.mag_every, max_hold_attempts=s.max_hold_attempts)
+
+
+def session_metadata(config: RigConfig, schedule: list[Orientation], *, sim: bool, seed: int | None,
+                     time_scale: float | None) -> dict:
+    return {
+        "software": f"rig {__version__}", "python": platform.python_version(), "host": socket.gethostname(),
+        "unit": {"serial": config.serial, "board": config.board}, "operator": config.operator,
+        "started": now_iso(), "ended": None, "status": "running", "reason": "",
+        "gravity_mps2": config.gravity_mps2, "field_uT": config.field_uT,
+        "config": config.to_dict(), "schedule": [asdict(o) for o in schedule],
+        "simulated": sim, "seed": seed, "time_scale": time_scale,
+    }
+
+
+def plan_for(config: RigConfig, seed: int | None = None) -> list[Orientation]:
+    return plan_orientations(config.schedule.orientations, seed=seed)
+
+
+def check_plan(config: RigConfig, schedule: list[Orientation]) -> list[str]:
+    """Observability problems of the schedule (empty when every axis of every sensor is excited)."""
+    from rig.calibration.observability import check_schedule
+
+    R = schedule_rotations(schedule, config.geometry)
+    problems = []
+    for name, ref in (("accel", (0.0, 0.0, 1.0)), ("mag", None)):
+        rep = check_schedule(R, reference_world=ref) if ref is not None else check_schedule(R)
+        if not rep.ok:
+            problems.append(f"{name}: {rep.message}")
+    return problems
+
+
+def record(rig, store, schedule: list[Orientation], *, start_step: int = 0,
+           progress: Callable[[int, int, str], None] | None = None) -> None:
+    """Run the table and board through `schedule` into `store`; the table is left safe whatever happens."""
+    try:
+        run_session(rig.table, rig.board, rig.clock, store, schedule, rig.config.geometry,
+                    motion_settings(rig.config), start_step=start_step, progress=progress)
+    finally:
+        rig.table.make_safe()
+
+
+def write_json(path: Path, data: dict) -> None:
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2) + "\n")
+    tmp.replace(path)

@@ -1,0 +1,123 @@
+"""Build a rig from its configuration: the real one on real buses and a real table, or (`--sim`) the same
+rig from the fakes: emulated chips on fake buses, the fake turntable as a Modbus TCP server on loopback,
+the simulated world and a virtual clock. This is the only place that chooses between real and fake.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, field
+from typing import Any
+
+from rig.board import SensorBoard, build_board
+from rig.clock import Clock, RealClock, SimClock
+from rig.config import RigConfig
+from rig.turntable import TurntableLink
+
+
+@dataclass
+class Rig:
+    config: RigConfig
+    clock: Clock
+    table: Any
+    board: SensorBoard
+    truth_fn: Any = None
+    world: Any = None
+    fake_table: Any = None
+    _stack: contextlib.ExitStack = field(default_factory=contextlib.ExitStack)
+
+    def close(self) -> None:
+        self._stack.close()
+
+    def __enter__(self) -> "Rig":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def build_real(config: RigConfig) -> Rig:
+    """The rig on this machine's buses (I2C bus 1, SPI bus 0) and the configured turntable URL."""
+    from drivers import open_i2c, open_spi
+
+    clock = RealClock()
+    stack = contextlib.ExitStack()
+    bus = open_i2c(int(config.chips.get("i2c_bus", 1)))
+    stack.callback(bus.close)
+    spi_bus = int(config.chips.get("spi_bus", 0))
+
+    def spi(cs: int):
+        dev = open_spi(spi_bus, cs, 0, 1_000_000)   # MCP3208 and ADXRS453: SPI mode 0; 1 MHz suits both at 3.3 V
+        stack.callback(dev.close)
+        return dev
+
+    board = build_board(config.board, i2c=bus, spi=spi, sleep=clock.sleep, overrides=config.chips.get(config.board))
+    link = _link(config, clock)
+    stack.enter_context(link)
+    return Rig(config, clock, link, board, _stack=stack)
+
+
+def _link(config: RigConfig, clock: Clock, url: str | None = None) -> "SamplingTable":
+    rate = config.schedule.rate_hz
+    return SamplingTable(TurntableLink(url or config.turntable.url, profile=config.turntable.profile, clock=clock,
+                                       poll_interval=config.turntable.poll_every / rate))
+
+
+class _WaitClock:
+    """A clock whose sleeps are spent in `wait` (sampling the sensors) instead of idling."""
+
+    def __init__(self, clock: Clock, wait) -> None:
+        self._clock, self._wait = clock, wait
+
+    def now(self) -> float:
+        return self._clock.now()
+
+    def sleep(self, dt: float) -> None:
+        self._wait(dt)
+
+
+class SamplingTable:
+    """The turntable link as `procedures.protocols.Table`: a move's waits between polls go to `wait`."""
+
+    def __init__(self, link: TurntableLink) -> None:
+        self.link = link
+
+    def __getattr__(self, name):
+        return getattr(self.link, name)
+
+    def __enter__(self) -> "SamplingTable":
+        self.link.__enter__()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.link.__exit__(*exc)
+
+    def move_to(self, outer_deg, inner_deg, *, wait=None, **kw):
+        if wait is None:
+            return self.link.move_to(outer_deg, inner_deg, **kw)
+        clock = self.link.clock
+        self.link.clock = _WaitClock(clock, wait)
+        try:
+            return self.link.move_to(outer_deg, inner_deg, **kw)
+        finally:
+            self.link.clock = clock
+
+
+def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: float | None = None) -> Rig:
+    """The simulated rig: everything the real one has, emulated, with the truth known."""
+    from fixtures.simrig import SimulatedHardware
+
+    clock = SimClock(time_scale=time_scale)
+    stack = contextlib.ExitStack()
+    hw = SimulatedHardware(config, clock, seed=seed, trial=trial)
+    stack.enter_context(hw)
+    board = build_board(config.board, i2c=hw.i2c, spi=hw.spi, set_reset=hw.set_reset, sleep=clock.sleep)
+    link = _link(config, clock, hw.url)
+    stack.enter_context(link)
+    return Rig(config, clock, link, board, world=hw.world, fake_table=hw.turntable, truth_fn=hw.truth,
+               _stack=stack)
+
+
+def truth_after_start(rig: Rig) -> dict | None:
+    """The simulator's truth in counts; only meaningful once the board started (ranges decide the counts)."""
+    return None if rig.truth_fn is None else rig.truth_fn()

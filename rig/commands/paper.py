@@ -1,0 +1,48 @@
+"""`rig paper`: the Monte Carlo of the paper's Tables I and II, side by side with the published rows."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+
+@click.command()
+@click.option("--runs", type=click.IntRange(1, 100000), default=1000, show_default=True)
+@click.option("--json", "json_out", type=click.Path(dir_okay=False, path_type=Path), required=True)
+@click.option("--plots", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Folder for the figures (PNG).")
+@click.option("--seed", type=int, default=0, show_default=True)
+def paper(runs, json_out, plots, seed):
+    """Reproduce Table I (accelerometer) and Table II (gyroscope) of Zhang et al. 2015."""
+    from procedures.paper_table1 import plot_table1, run_table1
+    from procedures.paper_table2 import plot_table2, run_table2
+
+    t1 = run_table1(runs=runs, seed=seed)
+    t2 = run_table2(runs=runs, seed=seed)
+    for name, table in (("Table I (accelerometer)", t1), ("Table II (gyroscope)", t2)):
+        click.echo(name)
+        for line in format_rows(table):
+            click.echo("  " + line)
+    json_out.parent.mkdir(parents=True, exist_ok=True)
+    json_out.write_text(json.dumps({"table1": t1, "table2": t2}, indent=2, default=float) + "\n")
+    if plots:
+        plots.mkdir(parents=True, exist_ok=True)
+        plot_table1(t1, plots)
+        plot_table2(t2, plots)
+    click.echo(f"wrote {json_out}")
+
+
+def format_rows(table: dict) -> list[str]:
+    lines = []
+    published = {r.get("iteration"): r for r in (table.get("published") or {}).get("rows", [])} \
+        if isinstance(table.get("published"), dict) else {}
+    for row in table.get("rows", []):
+        it = row.get("iteration")
+        fields = ", ".join(f"{k} {v:.3g}" for k, v in row.items() if k != "iteration" and isinstance(v, (int, float)))
+        line = f"iteration {it:>2}: {fields}"
+        if it in published:
+            line += f" | paper: {published[it]}"
+        lines.append(line)
+    return lines

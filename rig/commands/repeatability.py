@@ -1,0 +1,57 @@
+"""`rig repeatability`: N sessions on the same unit and the spread of every element of B and H."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+
+@click.command()
+@click.option("--sim", is_flag=True, help="Simulated rig: the same simulated unit, new noise every trial.")
+@click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False))
+@click.option("--trials", type=click.IntRange(2, 1000), required=True)
+@click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path))
+@click.option("--seed", type=int, default=0, show_default=True, help="The simulated unit.")
+@click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True)
+@click.option("--orientations", type=click.IntRange(6, 64), default=None)
+def repeatability(sim, config_path, trials, out, seed, method, orientations):
+    """Run TRIALS sessions on one unit and report the mean and standard deviation of B and H (paper Fig. 7)."""
+    from rig.commands.calibrate import _config, run_session_to
+    from rig.report import write_repeatability_report
+
+    if not sim and not config_path:
+        raise click.UsageError("give --sim or --config rig.toml")
+    config = _config(config_path, orientations)
+    runs = []
+    for k in range(trials):
+        folder = out / f"trial-{k + 1:03d}"
+        click.echo(f"trial {k + 1}/{trials} -> {folder}")
+        status = run_session_to(folder, config, sim=sim, seed=seed, time_scale=None, method=method,
+                                progress=False, trial=k)
+        if status:
+            sys.exit(status)
+        runs.append(calibration_triads(folder / "calibration.json"))
+    truth = None
+    if sim:
+        import json
+        truth = json.loads((out / "trial-001" / "truth.json").read_text())
+    report = write_repeatability_report(out, runs, truth=truth)
+    click.echo(f"wrote {report}")
+
+
+def calibration_triads(path: Path) -> dict:
+    """The sensors of a calibration file as TriadCalibration objects."""
+    import numpy as np
+
+    from rig.calibration.result import TriadCalibration
+    from rig.io.calibration_json import read_calibration
+
+    out = {}
+    for name, d in read_calibration(path)["sensors"].items():
+        out[name] = TriadCalibration(np.array(d["B"], float), np.array(d["H"], float), d.get("method", ""),
+                                     residual_rms=float(d.get("residual_rms", "nan")),
+                                     B_std=np.array(d["B_std"]) if "B_std" in d else None,
+                                     H_std=np.array(d["H_std"]) if "H_std" in d else None)
+    return out
