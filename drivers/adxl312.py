@@ -11,7 +11,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, SpiRegisters, check_not_floating, choose, spi_label
-from drivers.errors import FifoOverrun, WrongIdentity, wrap_os_error
+from drivers.errors import FifoOverrun, SensorFault, WrongIdentity, wrap_os_error
 
 DEVID, OFSX, OFSY, OFSZ = 0x00, 0x1E, 0x1F, 0x20
 BW_RATE, POWER_CTL, INT_ENABLE, INT_MAP, INT_SOURCE, DATA_FORMAT = 0x2C, 0x2D, 0x2E, 0x2F, 0x30, 0x31
@@ -30,6 +30,9 @@ INT_DATA_READY, INT_WATERMARK, INT_OVERRUN = 0x80, 0x02, 0x01
 FIFO_BYPASS, FIFO_STREAM = 0x00, 0x80
 FIFO_ENTRIES_MASK = 0x3F
 FIFO_DEPTH = 32
+SELF_TEST = 0x80
+SELF_TEST_RANGE_CODE, SELF_TEST_RATE_CODE, SELF_TEST_RATE_HZ = 3, 0xA, 100.0
+SELF_TEST_MIN_MG, SELF_TEST_MAX_MG = 300.0, 3400.0  # no-OS ADXL312_SELF_TEST_MIN/MAX_DEVIATION, Z axis
 
 RANGE_CODES = {1.5: 0, 3: 1, 6: 2, 12: 3}
 RATE_CODES = {6.25: 0x6, 12.5: 0x7, 25: 0x8, 50: 0x9, 100: 0xA, 200: 0xB, 400: 0xC, 800: 0xD, 1600: 0xE, 3200: 0xF}
@@ -146,9 +149,45 @@ class ADXL312:
         entries = self.regs.read(FIFO_STATUS) & FIFO_ENTRIES_MASK
         samples = [self.read_raw() for _ in range(entries)]
         if overrun:
-            raise FifoOverrun(f"{self.regs.location}: FIFO overrun (INT_SOURCE 0x{INT_SOURCE:02X} bit 0): "
-                              f"samples were lost; drained {entries}", samples)
+            raise FifoOverrun(f"{self.regs.where(INT_SOURCE)}: FIFO overrun (bit 0): samples were lost; "
+                              f"drained {entries}", samples)
         return samples
+
+    def self_test(self, samples: int = 10) -> float:
+        """Z-axis self-test response in mg; SensorFault outside 300..3400 mg (ADI no-OS limits for ADXL312).
+
+        Runs at +-12 g and 100 Hz like no-OS, averages `samples` readings with SELF_TEST off and on after
+        5 output periods of settling each (datasheet: 4 tau), then restores the configured range and rate.
+        """
+        period = 1.0 / SELF_TEST_RATE_HZ
+        self.regs.write(POWER_CTL, 0x00)
+        self.regs.write(DATA_FORMAT, FULL_RES | SELF_TEST_RANGE_CODE)
+        self.regs.write(BW_RATE, SELF_TEST_RATE_CODE)
+        self.regs.write(POWER_CTL, MEASURE)
+        saved_bits = self._mask, self._sign
+        self._set_bits(SELF_TEST_RANGE_CODE)
+        try:
+            z_off = self._mean_z(samples, period)
+            self.regs.write(DATA_FORMAT, SELF_TEST | FULL_RES | SELF_TEST_RANGE_CODE)
+            z_on = self._mean_z(samples, period)
+        finally:
+            self._mask, self._sign = saved_bits
+            self.regs.write(DATA_FORMAT, FULL_RES | self._range_code)
+            self.regs.write(BW_RATE, self._rate_code)
+            self.sleep(5 * period)
+        change_mg = (z_on - z_off) * 1000.0 / LSB_PER_G
+        if not SELF_TEST_MIN_MG < change_mg < SELF_TEST_MAX_MG:
+            raise SensorFault(f"{self.regs.where(DATA_FORMAT)}: self-test Z change {change_mg:.0f} mg outside "
+                              f"{SELF_TEST_MIN_MG:.0f}..{SELF_TEST_MAX_MG:.0f} mg")
+        return change_mg
+
+    def _mean_z(self, samples: int, period: float) -> float:
+        self.sleep(5 * period)
+        total = 0
+        for _ in range(samples):
+            total += self.read_raw()[2]
+            self.sleep(period)
+        return total / samples
 
     def settings(self) -> dict:
         """Snapshot for session metadata; `scale` is m/s^2 per count."""

@@ -103,11 +103,12 @@ class Sampler:
 
 
 def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 100.0, k_sigma: float = 8.0,
-                    quantum: float = 2.0) -> str | None:
+                    k_std: float = 4.0, quantum: float = 2.0) -> str | None:
     """Says which sensor and axis moved during a hold (someone bumped the table), or None.
 
-    The hold is cut into windows; a static hold has window means that agree to within their standard
-    error (plus a couple of counts of quantisation); a bump shows as a window far off the others.
+    The hold is cut into windows. A static hold has window means that agree to within their standard
+    error (plus a couple of counts of quantisation) and window spreads alike; a slow drift shows in the
+    means, a knock (a fast, decaying oscillation that averages out) in one window's spread.
     """
     n_win = max(int(window_s * rate_hz), 2)
     for name in ("gyro", "accel"):
@@ -116,14 +117,19 @@ def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 1
             continue
         y = y[~np.isnan(y).any(axis=1)]
         m = len(y) // n_win
-        if m < 2:
+        if m < 3:
             continue
         w = y[: m * n_win].reshape(m, n_win, 3)
-        means = w.mean(axis=1)
-        se = np.median(w.std(axis=1), axis=0) / np.sqrt(n_win)
+        means, stds = w.mean(axis=1), w.std(axis=1)
+        typical = np.median(stds, axis=0)
+        se = typical / np.sqrt(n_win)
         spread = means.max(axis=0) - means.min(axis=0)
-        bad = spread > k_sigma * se + quantum
-        if bad.any():
-            axis = "xyz"[int(np.argmax(spread - k_sigma * se))]
-            return f"{name} {axis}: window means spread {spread.max():.1f} counts (limit {float((k_sigma * se + quantum).max()):.1f})"
+        ratio = stds.max(axis=0) / (typical + quantum / 2)
+        for axis in range(3):
+            if spread[axis] > k_sigma * se[axis] + quantum:
+                return (f"{name} {'xyz'[axis]}: window means spread {spread[axis]:.1f} counts "
+                        f"(limit {k_sigma * se[axis] + quantum:.1f})")
+            if ratio[axis] > k_std:
+                return (f"{name} {'xyz'[axis]}: a window's spread is {ratio[axis]:.1f} times the hold's typical "
+                        f"(limit {k_std})")
     return None

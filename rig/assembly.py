@@ -46,8 +46,8 @@ def build_real(config: RigConfig) -> Rig:
     stack.callback(bus.close)
     spi_bus = int(config.chips.get("spi_bus", 0))
 
-    def spi(cs: int):
-        dev = open_spi(spi_bus, cs, 0, 1_000_000)   # MCP3208 and ADXRS453: SPI mode 0; 1 MHz suits both at 3.3 V
+    def spi(cs: int, mode: int, max_hz: int):
+        dev = open_spi(spi_bus, cs, mode, max_hz)
         stack.callback(dev.close)
         return dev
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from drivers import ADXL312, ADXL330, ADXRS453, HMC1053, HMC5843, ITG3200, MCP3208, GyroTriad
+from drivers import adxrs453 as _adxrs453, mcp3208 as _mcp3208
 
 # default placement per board; [chips] in the rig TOML overrides keys
 PLACEMENT = {
@@ -50,22 +51,23 @@ class SensorBoard:
         return out
 
 
-def build_board(kind: str, *, i2c: Any, spi: Callable[[int], Any], set_reset: Callable[[int], None] | None = None,
+def build_board(kind: str, *, i2c: Any, spi: Callable[[int, int, int], Any], set_reset: Callable[[int], None] | None = None,
                 sleep: Callable[[float], None] = time.sleep, overrides: dict | None = None) -> SensorBoard:
-    """The board `kind` on an open I2C bus and an SPI opener `spi(chip_select)`."""
+    """The board `kind` on an open I2C bus and an SPI opener `spi(chip_select, mode, max_speed_hz)`."""
     if kind not in PLACEMENT:
         raise ValueError(f"unknown board {kind!r}; allowed: {sorted(PLACEMENT)}")
     p = {**PLACEMENT[kind], **(overrides or {})}
     if kind == "bsn":
-        adc = MCP3208(spi(p["adc_cs"]), vref=3.3)
+        adc = MCP3208(spi(p["adc_cs"], _mcp3208.SPI_MODE, _mcp3208.SPI_MAX_HZ), vref=3.3)
         accel = ADXL330(adc, tuple(p["accel_channels"]), supply_channel=p["supply_channel"], sleep=sleep)
         gyro = ITG3200(i2c, p["gyro_address"], rate_hz=p["rate_hz"], sleep=sleep)
         mag = HMC5843(i2c, p["mag_address"], rate_hz=p["mag_rate_hz"], sleep=sleep)
         return SensorBoard(kind, {"accel": accel, "gyro": gyro, "mag": mag}, [adc, accel, gyro, mag],
                            gyro.read_temperature, accel.read_supply_v, p)
-    adc = MCP3208(spi(p["adc_cs"]), vref=3.3)
+    adc = MCP3208(spi(p["adc_cs"], _mcp3208.SPI_MODE, _mcp3208.SPI_MAX_HZ), vref=3.3)
     accel = ADXL312(i2c, p["accel_address"], range_g=p["accel_range_g"], rate_hz=p["rate_hz"], sleep=sleep)
-    gyro = GyroTriad([ADXRS453(spi(cs), sleep=sleep) for cs in p["gyro_cs"]])
+    gyro = GyroTriad([ADXRS453(spi(cs, _adxrs453.SPI_MODE, _adxrs453.SPI_MAX_HZ), sleep=sleep)
+                      for cs in p["gyro_cs"]])
     mag = HMC1053(adc, tuple(p["mag_channels"]), set_reset=set_reset, sleep=sleep)
     return SensorBoard(kind, {"accel": accel, "gyro": gyro, "mag": mag}, [adc, accel, gyro, mag],
                        gyro.gyros[0].read_temperature, None, p)
