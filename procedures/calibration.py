@@ -46,8 +46,11 @@ def position_table(table: Table, clock: Clock, target: Orientation, m: MotionSet
 
 def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule: list[Orientation],
                 geometry: TableGeometry, m: MotionSettings, *, start_step: int = 0,
-                progress: Progress | None = None) -> None:
-    """Record holds `start_step..` of `schedule` and the moves between them into `store`."""
+                progress: Progress | None = None) -> dict:
+    """Record holds `start_step..` of `schedule` and the moves between them into `store`.
+
+    Returns acquisition figures: ticks sampled and reads that found no fresh sample (late_reads).
+    """
     n = len(schedule)
     table.enable()
     first = schedule[max(start_step - 1, 0)]
@@ -65,14 +68,15 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
         _record_hold(table, sampler, store, geometry, schedule[j], j, m)
     if progress:
         progress(n, n, "done")
+    return {"ticks": sampler._k, "late_reads": sampler.late_reads}
 
 
 def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
                  step: int, m: MotionSettings) -> None:
-    t_pos, pos = [sampler.now], [table.positions()]
+    t_pos, pos = [sampler.clock.now()], [table.positions()]
 
     def log_positions(statuses: list) -> None:
-        t_pos.append(sampler.now)
+        t_pos.append(sampler.clock.now())
         pos.append(tuple(st.position_deg for st in sorted(statuses, key=lambda st: st.axis)))
 
     table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,

@@ -63,7 +63,8 @@ def run_session_to(out: Path, config: RigConfig, *, sim: bool, seed: int, time_s
         try:
             if start < len(schedule):
                 store.set_status("running", "resumed" if resume else "")
-                record(rig, store, schedule, start_step=start, progress=prog)
+                stats = record(rig, store, schedule, start_step=start, progress=prog)
+                store.update_metadata(acquisition=stats)
         except KeyboardInterrupt:
             bar.close()
             store.set_status("aborted", "interrupted by the operator (SIGINT); the table was stopped and disabled")

@@ -1,0 +1,97 @@
+"""A dynamic trajectory for attitude validation: a hold, continuous motion on both axes, a hold.
+
+The reference is the table's encoders, read with their velocities every couple of ticks and joined by
+cubic Hermite interpolation, so it stays accurate through the rate ramps (linear interpolation of 10 Hz
+polls would be off by ~0.4 deg at 300 deg/s^2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline
+
+from procedures.acquisition import Sampler
+from procedures.calibration import MotionSettings, position_table
+from procedures.planning import Orientation
+from rig.clock import Clock
+from rig.rotations import TableGeometry, quat_from_matrix
+from rig.session_data import SessionData
+
+# (outer rate deg/s, inner rate deg/s, seconds): swings that return near the start, up to ~130 deg/s
+DEFAULT_SEGMENTS = [(60.0, 130.0, 1.2), (-60.0, -130.0, 2.4), (60.0, 130.0, 1.2),
+                    (-90.0, 70.0, 1.0), (90.0, -70.0, 2.0), (-90.0, 70.0, 1.0)]
+
+
+@dataclass
+class TrajectorySettings:
+    start: Orientation = Orientation(35.0, 20.0)
+    segments: tuple = tuple(DEFAULT_SEGMENTS)
+    hold_s: float = 3.0
+    accel_dps2: float = 300.0
+    poll_every: int = 2
+
+
+def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: MotionSettings,
+                   ts: TrajectorySettings | None = None) -> SessionData:
+    """Record hold 0, the motion (phase 'move', step 0) and hold 1; returns the session arrays."""
+    ts = ts or TrajectorySettings()
+    table.enable()
+    position_table(table, clock, ts.start, m)
+    sampler = Sampler(board, clock, m.rate_hz, m.mag_every)
+    ref_t, ref_pos, ref_vel = [], [], []
+
+    def poll() -> tuple[float, float]:
+        sts = sorted((table.axis_status(a) for a in (0, 1)), key=lambda s: s.axis)
+        ref_t.append(clock.now())
+        ref_pos.append([s.position_deg for s in sts])
+        ref_vel.append([s.velocity_dps for s in sts])
+        return ref_vel[-1]
+
+    hold_ticks = int(round(ts.hold_s * m.rate_hz))
+    phases = []
+    poll()
+    sampler.run(hold_ticks)
+    phases.append(("hold", 0, hold_ticks))
+    k0 = sampler._k
+    for rate_outer, rate_inner, seconds in ts.segments:
+        table.move_velocity(0, rate_outer, ts.accel_dps2)
+        table.move_velocity(1, rate_inner, ts.accel_dps2)
+        for _ in range(int(round(seconds * m.rate_hz / ts.poll_every))):
+            poll()
+            sampler.run(ts.poll_every)
+    table.stop()
+    while True:
+        vel = poll()
+        sampler.run(ts.poll_every)
+        if max(abs(v) for v in vel) == 0.0:
+            break
+    sampler.run(int(round(m.settle_s * m.rate_hz)))
+    phases.append(("move", 0, sampler._k - k0))
+    poll()
+    sampler.run(hold_ticks)
+    poll()
+    phases.append(("hold", 1, hold_ticks))
+    rec = sampler.take()
+    table.make_safe()
+    return _session(rec, phases, np.array(ref_t), np.array(ref_pos), np.array(ref_vel), geometry, m)
+
+
+def _session(rec, phases, ref_t, ref_pos, ref_vel, geometry, m) -> SessionData:
+    is_move = np.zeros(rec.t.size, bool)
+    step = np.zeros(rec.t.size, int)
+    k = 0
+    for phase, j, n in phases:
+        is_move[k:k + n] = phase == "move"
+        step[k:k + n] = j
+        k += n
+    keep = np.concatenate([[True], np.diff(ref_t) > 0])
+    angles = np.column_stack([CubicHermiteSpline(ref_t[keep], ref_pos[keep, i], ref_vel[keep, i])(rec.t)
+                              for i in range(2)])
+    q = quat_from_matrix(geometry.rotation(angles[:, 0], angles[:, 1]))
+    cols = {"accel": ["ax", "ay", "az"], "gyro": ["gx", "gy", "gz"], "mag": ["mx", "my", "mz"]}
+    return SessionData(t=rec.t - rec.t[0], is_move=is_move, step=step, q_ref=q, raw=rec.samples,
+                       columns={n: cols[n] for n in rec.samples}, sample_rate_hz=m.rate_hz, table_deg=angles,
+                       temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, source="<trajectory>",
+                       meta={"clock_t0": float(rec.t[0])})
