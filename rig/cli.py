@@ -14,6 +14,9 @@ SUBCOMMANDS = {
     "export": "rig.commands.export:export",
     "repeatability": "rig.commands.repeatability:repeatability",
     "paper": "rig.commands.paper:paper",
+    "discrepancy": "rig.commands.discrepancy:discrepancy",
+    "attitude": "rig.commands.attitude:attitude",
+    "validate": "rig.commands.attitude:validate",
     "table": "rig.turntable.cli:table",
     "sim-turntable": "fixtures.turntable.cli:sim_turntable",
 }

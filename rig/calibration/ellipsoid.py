@@ -16,6 +16,7 @@ import numpy as np
 from rig.errors import CalibrationError
 
 MIN_POINTS = 9
+DISTINCT_RADIUS = 0.02   # in units of the RMS spread of the points: ~1 deg of orientation
 
 
 @dataclass
@@ -45,13 +46,17 @@ def fit_ellipsoid(y: np.ndarray) -> EllipsoidFit:
     if not scale > 0:
         raise CalibrationError("ellipsoid fit: all points are identical")
     p = (y - mean) / scale
+    distinct = _count_distinct_points(p)
+    if distinct < MIN_POINTS:
+        raise CalibrationError(f"ellipsoid fit: only {distinct} distinct orientations among {len(p)} points "
+                               f"(repeats within {DISTINCT_RADIUS:g} of the spread count once); the ellipsoid "
+                               f"needs {MIN_POINTS}")
     x1, x2, x3 = p.T
     D = np.column_stack([x1 * x1, x2 * x2, x3 * x3, 2 * x1 * x2, 2 * x1 * x3, 2 * x2 * x3, 2 * x1, 2 * x2, 2 * x3])
-    sv = np.linalg.svd(D, compute_uv=False)
-    if sv[-1] < 1e-9 * sv[0]:
+    c, _, rank, sv = np.linalg.lstsq(D, np.ones(len(p)), rcond=None)
+    if rank < 9 or sv[-1] < 1e-9 * sv[0]:
         raise CalibrationError("ellipsoid fit: the points are degenerate (coplanar or on a conic); "
                                "add orientations that tilt every sensor axis")
-    c, *_ = np.linalg.lstsq(D, np.ones(len(p)), rcond=None)
     M = np.array([[c[0], c[3], c[4]], [c[3], c[1], c[5]], [c[4], c[5], c[2]]])
     m = c[6:9]
     try:
@@ -66,6 +71,13 @@ def fit_ellipsoid(y: np.ndarray) -> EllipsoidFit:
     q = p - centre_p
     residual = float(np.sqrt(np.mean((np.einsum("ni,ij,nj->n", q, A_p, q) - 1.0) ** 2)))
     return EllipsoidFit(center=mean + scale * centre_p, shape=A_p / scale**2, residual=residual)
+
+
+def _count_distinct_points(p: np.ndarray) -> int:
+    """Points not within DISTINCT_RADIUS of an earlier point: a repeated hold adds no shape information."""
+    d2 = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=2)
+    close = np.triu(d2 < DISTINCT_RADIUS**2, 1)
+    return int(len(p) - np.count_nonzero(close.any(axis=0)))
 
 
 def sphere_map(fit: EllipsoidFit, norm: float) -> np.ndarray:

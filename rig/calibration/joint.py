@@ -16,13 +16,15 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from rig.calibration.observability import tangent_basis, validate_holds
+from rig.calibration.observability import direction_problems, tangent_basis, validate_holds
 from rig.calibration.result import TriadCalibration
 from rig.calibration.twostep import calibrate_two_step
 from rig.errors import CalibrationError
 
 MIN_ORIENTATIONS = 6
 N_PARAMS = 14  # B (3) + H (9) + direction of v (2)
+QUANTISATION_STD = 1 / np.sqrt(12.0)   # counts
+MAX_CONDITION = 1e3                    # real triads, soft iron included, are within ~3
 
 
 def calibrate_joint(y_means: np.ndarray, R: np.ndarray, norm: float, *, y_std: np.ndarray | None = None,
@@ -32,15 +34,23 @@ def calibrate_joint(y_means: np.ndarray, R: np.ndarray, norm: float, *, y_std: n
     """Joint least-squares / maximum-likelihood B and H; see the module docstring.
 
     reference_world: starting guess for v's direction (e.g. (0, 0, 1) for a level accelerometer); without
-    it the start is the two-step solution (needs >= 9 holds). The direction is always estimated.
+    it the start is the two-step solution, or with too few distinct holds for that, the best of three axis
+    starts. The direction is always estimated.
     residual_rms: RMS of |u_k - R_k^T v| (calibrated units). With y_std the covariance is scaled by the
     reduced chi-square when that exceeds 1 (unmodelled errors), else taken as is; without y_std by the
     residual variance. extra: reference_world (fitted v), reduced_chi2, v_std_deg.
     """
     y, R = validate_holds(y_means, R, min_orientations=MIN_ORIENTATIONS, full_scale=full_scale, what="joint")
     sigma = _hold_sigma(y_std, counts, len(y))
-    v = _start_reference(y, R, norm, reference_world, full_scale)
-    K, B, v, alternations, converged = _alternate(y, R, v, norm, max_alternations, tol)
+    starts = [_alternate(y, R, v0, norm, max_alternations, tol)
+              for v0 in _start_references(y, R, norm, reference_world, full_scale)]
+    K, B, v, alternations, converged = min(starts, key=lambda s: _sse(y, R, *s[:3]))
+    _, problems, _ = direction_problems(np.einsum("kji,j->ki", R, v))
+    if problems:
+        raise CalibrationError(f"joint: {problems[0]}; B and H are not observable from these holds")
+    if np.linalg.cond(K) > MAX_CONDITION:
+        raise CalibrationError(f"joint: the fitted sensor matrix is near singular (condition {np.linalg.cond(K):.3g}); "
+                               "the holds do not determine H (check the schedule with observability.check_schedule)")
     warnings = [] if converged else [f"joint: alternating least squares did not converge in {alternations} rounds"]
     result = TriadCalibration(B=B, H=np.linalg.inv(K), method="joint", iterations=alternations,
                               converged=converged, warnings=warnings)
@@ -59,27 +69,37 @@ def calibrate_joint(y_means: np.ndarray, R: np.ndarray, norm: float, *, y_std: n
 
 
 def _hold_sigma(y_std, counts, n: int) -> np.ndarray:
+    """Standard error of each hold mean. Raw counts are integers, so no sample is better than the
+    quantisation noise 1/sqrt(12) count: a std below it (a quiet or simulated sensor reports 0) is floored."""
     if y_std is None:
         return np.ones((n, 3))
     s = np.broadcast_to(np.asarray(y_std, dtype=float), (n, 3)).copy()
+    bad = np.flatnonzero(~(np.isfinite(s).all(axis=1) & (s >= 0).all(axis=1)))
+    if bad.size:
+        raise CalibrationError(f"joint: y_std must be finite and >= 0; holds {bad.tolist()} are not")
+    s = np.maximum(s, QUANTISATION_STD)
     if counts is not None:
         c = np.asarray(counts, dtype=float).reshape(n)
         if np.any(~(c >= 1)):
             raise CalibrationError(f"joint: sample counts must be >= 1, holds {np.flatnonzero(~(c >= 1)).tolist()} are not")
         s = s / np.sqrt(c)[:, None]
-    bad = np.flatnonzero(~(np.isfinite(s).all(axis=1) & (s > 0).all(axis=1)))
-    if bad.size:
-        raise CalibrationError(f"joint: y_std must be finite and > 0; holds {bad.tolist()} are not")
     return s
 
 
-def _start_reference(y, R, norm, reference_world, full_scale) -> np.ndarray:
+def _start_references(y, R, norm, reference_world, full_scale) -> list[np.ndarray]:
+    """The given reference; else the two-step solution's; else (too few distinct holds for the ellipsoid)
+    the three fixture axes turned into the world by the first hold, the best fit of which is kept."""
     if reference_world is not None:
         v = np.asarray(reference_world, dtype=float)
-        return norm * v / np.linalg.norm(v)
-    if len(y) < 9:
-        raise CalibrationError(f"joint: {len(y)} holds; without reference_world the start needs >= 9 (two-step)")
-    return np.asarray(calibrate_two_step(y, R, norm, full_scale=full_scale).extra["reference_world"])
+        return [norm * v / np.linalg.norm(v)]
+    try:
+        return [np.asarray(calibrate_two_step(y, R, norm, full_scale=full_scale).extra["reference_world"])]
+    except CalibrationError:
+        return [norm * R[0] @ e for e in np.eye(3)]
+
+
+def _sse(y, R, K, B, v) -> float:
+    return float(np.sum((y - np.einsum("kji,j->ki", R, v) @ K.T - B) ** 2))
 
 
 def _alternate(y, R, v, norm, max_rounds: int, tol: float):
@@ -89,9 +109,6 @@ def _alternate(y, R, v, norm, max_rounds: int, tol: float):
     X1 = np.ones((n, 4))
     for it in range(1, max_rounds + 1):
         X1[:, :3] = np.einsum("kji,j->ki", R, v)
-        if np.linalg.matrix_rank(X1, tol=1e-6 * np.abs(X1).max()) < 4:
-            raise CalibrationError("joint: the reference directions R_k^T v are coplanar; B and H are not observable "
-                                   "(see observability.check_schedule)")
         P, *_ = np.linalg.lstsq(X1, y, rcond=None)
         K_new, B = P[:3].T, P[3]
         A = np.einsum("ab,kcb->kac", K_new, R).reshape(3 * n, 3)   # rows of K R_k^T

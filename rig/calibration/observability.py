@@ -21,6 +21,8 @@ AXES = ("x", "y", "z")
 SPREAD_RATIO_MIN = 0.05
 INFO_RATIO_MIN = 1e-6
 SATURATION_MARGIN = 0.98
+DISTINCT_DEG = 2.0
+ELLIPSOID_MIN_DIRECTIONS = 9
 
 
 @dataclass
@@ -31,6 +33,8 @@ class ObservabilityReport:
     message: str
     direction_singular_values: np.ndarray = field(default_factory=lambda: np.zeros(3))
     n_orientations: int = 0
+    distinct_directions: int = 0      # reference directions more than DISTINCT_DEG apart
+    two_step_ok: bool = False         # the ellipsoid of the two-step method needs >= 9 distinct directions
 
 
 def check_schedule(R: np.ndarray, *, reference_world=(0.0, 0.0, 1.0),
@@ -47,36 +51,54 @@ def check_schedule(R: np.ndarray, *, reference_world=(0.0, 0.0, 1.0),
     n = len(R)
     x = np.einsum("kji,j->ki", R, v)
     problems: list[str] = []
-    axes: list[str] = []
     if n < min_orientations:
         problems.append(f"{n} orientations, need at least {min_orientations}")
-    U, s_dir, _ = np.linalg.svd(x.T @ x / max(n, 1))
-    s_dir = np.sqrt(s_dir)
-    if s_dir[-1] < SPREAD_RATIO_MIN * s_dir[0]:
-        axis = axis_name(U[:, -1])
-        axes.append(axis)
-        problems.append(f"the reference directions are coplanar: fixture axis {axis} never sees the reference "
-                        "(e.g. a vertical outer axis); H is unobservable along it")
-    else:
-        xc = x - x.mean(axis=0)
-        Uc, s_c, _ = np.linalg.svd(xc.T @ xc / max(n, 1))
-        if np.sqrt(s_c[-1]) < SPREAD_RATIO_MIN * s_dir[0]:
-            axis = axis_name(Uc[:, -1])
-            axes.append(axis)
-            problems.append(f"the reference directions lie on a cone about fixture {axis}: the offset along "
-                            f"{axis} is confounded with the scale (add tilts of the inner axis)")
+    s_dir, dir_problems, axes = direction_problems(x)
+    problems += dir_problems
     J = joint_jacobian_nominal(R, v)
     _, s_info, Vt = np.linalg.svd(J, full_matrices=True)
     if len(s_info) < 14 or s_info[-1] < INFO_RATIO_MIN * s_info[0]:
         axis = axis_name(np.sqrt((Vt[-1, 3:12].reshape(3, 3) ** 2).sum(axis=0)))
-        if axis not in axes:
+        if not axes:
             axes.append(axis)
-        problems.append(f"the joint model's information matrix is rank deficient ({int(np.sum(s_info > INFO_RATIO_MIN * s_info[0]))}"
-                        f" of 14); weakest along fixture {axis}")
+        rank = int(np.sum(s_info > INFO_RATIO_MIN * s_info[0]))
+        problems.append(f"the joint model's information matrix is rank deficient ({rank} of 14); "
+                        f"weakest along fixture {axis}")
     ok = not problems
+    distinct = count_distinct(x)
+    two_step_ok = ok and distinct >= ELLIPSOID_MIN_DIRECTIONS
     message = "schedule observable" if ok else "; ".join(problems)
+    if ok and not two_step_ok:
+        message += (f" for the joint method only: the two-step ellipsoid needs >= {ELLIPSOID_MIN_DIRECTIONS} "
+                    f"distinct reference directions, this schedule has {distinct}")
     return ObservabilityReport(ok=ok, unobservable_axes=axes, singular_values=s_info, message=message,
-                               direction_singular_values=s_dir, n_orientations=n)
+                               direction_singular_values=s_dir, n_orientations=n, distinct_directions=distinct,
+                               two_step_ok=two_step_ok)
+
+
+def direction_problems(x: np.ndarray) -> tuple[np.ndarray, list[str], list[str]]:
+    """Spread of the fixture-frame reference directions x (n, 3): (singular values, problems, axes named)."""
+    n = max(len(x), 1)
+    U, s_dir, _ = np.linalg.svd(x.T @ x / n)
+    s_dir = np.sqrt(s_dir)
+    if s_dir[-1] < SPREAD_RATIO_MIN * s_dir[0]:
+        axis = axis_name(U[:, -1])
+        return s_dir, [f"the reference directions are coplanar: fixture axis {axis} never sees the reference "
+                       "(e.g. a vertical outer axis); H is unobservable along it"], [axis]
+    xc = x - x.mean(axis=0)
+    Uc, s_c, _ = np.linalg.svd(xc.T @ xc / n)
+    if np.sqrt(s_c[-1]) < SPREAD_RATIO_MIN * s_dir[0]:
+        axis = axis_name(Uc[:, -1])
+        return s_dir, [f"the reference directions lie on a cone about fixture {axis}: the offset along {axis} is "
+                       "confounded with the scale (add tilts of the inner axis)"], [axis]
+    return s_dir, [], []
+
+
+def count_distinct(x: np.ndarray, min_angle_deg: float = DISTINCT_DEG) -> int:
+    """Number of directions not within `min_angle_deg` of an earlier one (repeats add no ellipsoid shape)."""
+    u = x / np.linalg.norm(x, axis=1, keepdims=True)
+    close = np.triu(u @ u.T > np.cos(np.radians(min_angle_deg)), 1)
+    return int(len(u) - np.count_nonzero(close.any(axis=0)))
 
 
 def axis_name(direction: np.ndarray) -> str:

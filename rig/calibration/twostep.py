@@ -19,8 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from rig.calibration.ellipsoid import fit_ellipsoid, sphere_map
-from rig.calibration.observability import require_spread, validate_holds
+from rig.calibration.observability import ELLIPSOID_MIN_DIRECTIONS, count_distinct, require_spread, validate_holds
 from rig.calibration.result import TriadCalibration
+from rig.errors import CalibrationError
 
 MIN_ORIENTATIONS = 9
 
@@ -38,28 +39,41 @@ def calibrate_two_step(y_means: np.ndarray, R: np.ndarray, norm: float, *, max_i
     fit = fit_ellipsoid(y)
     B = fit.center
     Z = (y - B).T
-    Zpinv = np.linalg.pinv(Z)                                   # (n, 3)
-    G = np.einsum("kji,kl->jil", R, Zpinv)                      # H(v) = G . v  (step ii)
-    M = np.einsum("kab,jbl,lk->aj", R, G, Z) / len(y)          # one round (ii)+(i): v <- M v
-    H = sphere_map(fit, norm)
-    v = np.einsum("kab,bc,ck->a", R, H, Z) / len(y)
-    if np.linalg.norm(v) < 1e-12 * norm:
+    Zpinv = np.linalg.solve(Z @ Z.T, Z).T                      # (n, 3) pseudo-inverse of the full-rank Z
+    G = np.einsum("kji,kl->jil", R, Zpinv).reshape(3, 9)       # step (ii): vec H = v @ G
+    M = np.einsum("kab,jbl,lk->aj", R, G.reshape(3, 3, 3), Z) / len(y)   # one round (ii)+(i): v <- M v
+    h = sphere_map(fit, norm).ravel()
+    v = np.einsum("kab,bc,ck->a", R, h.reshape(3, 3), Z) / len(y)
+    if not np.dot(v, v) > (1e-12 * norm) ** 2:
         v = np.array([0.0, 0.0, norm])
     history = []
     converged = False
     it = 0
+    tol2 = tol * tol
     for it in range(1, max_iter + 1):
-        v = norm * v / np.linalg.norm(v)
-        H_new = np.einsum("jil,j->il", G, v)
-        change = np.linalg.norm(H_new - H) / np.linalg.norm(H_new)
-        H = H_new
+        v = v * (norm / np.sqrt(np.dot(v, v)))
+        h_new = v @ G
+        d = h_new - h
+        h = h_new
         if record_history:
-            history.append(H.copy())
-        if change < tol:
+            history.append(h.reshape(3, 3).copy())
+        if np.dot(d, d) < tol2 * np.dot(h, h):
             converged = True
             break
         v = M @ v
+    H = h.reshape(3, 3)
+    _require_distinct_directions(R, v)
     return _finish(H, B, R, y, norm, it, converged, history if record_history else None, fit.residual)
+
+
+def _require_distinct_directions(R: np.ndarray, v: np.ndarray) -> None:
+    """Holds that differ only by a turn about the reference give the same reading: the ellipsoid then rests on
+    fewer than 9 points and its centre is wrong however small the noise looks. Refuse, naming the count."""
+    distinct = count_distinct(np.einsum("kji,j->ki", R, v))
+    if distinct < ELLIPSOID_MIN_DIRECTIONS:
+        raise CalibrationError(f"two-step: only {distinct} distinct reference directions among {len(R)} holds "
+                               f"(the ellipsoid needs {ELLIPSOID_MIN_DIRECTIONS}); add orientations or use the "
+                               "joint method")
 
 
 def normalise_history(Hs: np.ndarray, z: np.ndarray, norm: float) -> np.ndarray:
