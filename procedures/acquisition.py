@@ -31,7 +31,7 @@ class Sampler:
     rate_hz: float = 100.0
     mag_every: int = 2
     aux_every: int = 10
-    t0: float = field(default=0.0)
+    session_t0: float = 0.0
     _k: int = 0
     late_reads: int = 0
 
@@ -65,7 +65,7 @@ class Sampler:
             self._supply = float("nan") if supply is None else supply
         self._temps.append(self._temp)
         self._supplies.append(self._supply)
-        self._t.append(t)
+        self._t.append(self.stamp(t))
         self._k += 1
 
     def _wait_ready(self, name: str) -> None:
@@ -99,7 +99,12 @@ class Sampler:
 
     @property
     def now(self) -> float:
+        """Clock time of the next tick."""
         return self.t0 + self._k * self.dt
+
+    def stamp(self, clock_time: float) -> float:
+        """Session time (s from session start, continuing across a resume) of a clock reading."""
+        return clock_time - self.t0 + self.session_t0
 
 
 def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 100.0, k_sigma: float = 8.0,

@@ -45,7 +45,7 @@ def position_table(table: Table, clock: Clock, target: Orientation, m: MotionSet
 
 
 def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule: list[Orientation],
-                geometry: TableGeometry, m: MotionSettings, *, start_step: int = 0,
+                geometry: TableGeometry, m: MotionSettings, *, start_step: int = 0, session_t0: float = 0.0,
                 progress: Progress | None = None) -> dict:
     """Record holds `start_step..` of `schedule` and the moves between them into `store`.
 
@@ -57,7 +57,7 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     if progress:
         progress(start_step, n, "positioning")
     position_table(table, clock, first, m)
-    sampler = Sampler(board, clock, m.rate_hz, m.mag_every)
+    sampler = Sampler(board, clock, m.rate_hz, m.mag_every, session_t0=session_t0)
     for j in range(start_step, n):
         if j > 0:
             if progress:
@@ -73,16 +73,16 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
 
 def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
                  step: int, m: MotionSettings) -> None:
-    t_pos, pos = [sampler.clock.now()], [table.positions()]
+    t_pos, pos = [sampler.stamp(sampler.clock.now())], [table.positions()]
 
     def log_positions(statuses: list) -> None:
-        t_pos.append(sampler.clock.now())
+        t_pos.append(sampler.stamp(sampler.clock.now()))
         pos.append(tuple(st.position_deg for st in sorted(statuses, key=lambda st: st.axis)))
 
     table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,
                   tolerance_deg=m.tolerance_deg, settle_s=m.settle_s, on_poll=log_positions, wait=sampler.run_for)
     rec = sampler.take()
-    t_pos.append(sampler.now)
+    t_pos.append(sampler.stamp(sampler.now))
     pos.append(table.positions())
     table_deg = np.column_stack([np.interp(rec.t, t_pos, np.asarray(pos)[:, i]) for i in range(2)])
     store.append_move(step, t=rec.t, samples=rec.samples, q_ref=quat_from_matrix(geometry.rotation(*table_deg.T)),

@@ -38,7 +38,6 @@ def session_metadata(config: RigConfig, schedule: list[Orientation], *, sim: boo
     return {
         "software": f"rig {__version__}", "python": platform.python_version(), "host": socket.gethostname(),
         "unit": {"serial": config.serial, "board": config.board}, "operator": config.operator,
-        "started": now_iso(), "ended": None, "status": "running", "reason": "",
         "gravity_mps2": config.gravity_mps2, "field_uT": config.field_uT,
         "config": config.to_dict(), "schedule": [asdict(o) for o in schedule],
         "simulated": sim, "seed": seed, "time_scale": time_scale,
@@ -73,12 +72,13 @@ def check_plan(config: RigConfig, schedule: list[Orientation]) -> list[str]:
     return problems
 
 
-def record(rig, store, schedule: list[Orientation], *, start_step: int = 0,
+def record(rig, store, schedule: list[Orientation], *, start_step: int = 0, session_t0: float = 0.0,
            progress: Callable[[int, int, str], None] | None = None) -> dict:
     """Run the table and board through `schedule` into `store`; the table is left safe whatever happens."""
     try:
         return run_session(rig.table, rig.board, rig.clock, store, schedule, rig.config.geometry,
-                    motion_settings(rig.config), start_step=start_step, progress=progress)
+                           motion_settings(rig.config), start_step=start_step, session_t0=session_t0,
+                           progress=progress)
     finally:
         rig.table.make_safe()
 

@@ -44,7 +44,7 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
 
     def poll() -> tuple[float, float]:
         sts = sorted((table.axis_status(a) for a in (0, 1)), key=lambda s: s.axis)
-        ref_t.append(clock.now())
+        ref_t.append(sampler.stamp(clock.now()))
         ref_pos.append([s.position_deg for s in sts])
         ref_vel.append([s.velocity_dps for s in sts])
         return ref_vel[-1]
@@ -75,10 +75,10 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
     phases.append(("hold", 1, hold_ticks))
     rec = sampler.take()
     table.make_safe()
-    return _session(rec, phases, np.array(ref_t), np.array(ref_pos), np.array(ref_vel), geometry, m)
+    return _session(rec, phases, np.array(ref_t), np.array(ref_pos), np.array(ref_vel), geometry, m, sampler.t0)
 
 
-def _session(rec, phases, ref_t, ref_pos, ref_vel, geometry, m) -> SessionData:
+def _session(rec, phases, ref_t, ref_pos, ref_vel, geometry, m, sampler_t0: float) -> SessionData:
     is_move = np.zeros(rec.t.size, bool)
     step = np.zeros(rec.t.size, int)
     k = 0
@@ -94,4 +94,4 @@ def _session(rec, phases, ref_t, ref_pos, ref_vel, geometry, m) -> SessionData:
     return SessionData(t=rec.t - rec.t[0], is_move=is_move, step=step, q_ref=q, raw=rec.samples,
                        columns={n: cols[n] for n in rec.samples}, sample_rate_hz=m.rate_hz, table_deg=angles,
                        temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, source="<trajectory>",
-                       meta={"clock_t0": float(rec.t[0])})
+                       meta={"clock_t0": float(rec.t[0]) + sampler_t0})

@@ -106,6 +106,12 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
         raise ValueError(f"{where}: [schedule] orientations = {cfg.schedule.orientations}; use 10 to 20 (6..64 allowed)")
     if cfg.schedule.hold_s <= 0 or cfg.schedule.rate_hz <= 0:
         raise ValueError(f"{where}: [schedule] hold_s and rate_hz must be positive")
+    from rig.report.limits import LimitsError, validate_limits
+
+    try:
+        validate_limits(cfg.limits)
+    except LimitsError as e:
+        raise ValueError(f"{where}: [limits] {e}") from None
     return cfg
 
 

@@ -27,7 +27,7 @@ def _progress_bar(total: int, enabled: bool):
 def run_session_to(out: Path, config: RigConfig, *, sim: bool, seed: int, time_scale: float | None,
                    method: str, progress: bool, resume: bool = False, trial: int = 0) -> int:
     """Record (or finish recording) a session in `out`, then calibrate and report. Returns the exit status."""
-    from procedures.session import check_plan, now_iso, plan_for, record, session_metadata, write_json
+    from procedures.session import check_plan, plan_for, record, session_metadata, write_json
     from rig.assembly import build_real, build_sim, truth_after_start
     from rig.store import SessionStore
 
@@ -63,47 +63,50 @@ def run_session_to(out: Path, config: RigConfig, *, sim: bool, seed: int, time_s
         try:
             if start < len(schedule):
                 store.set_status("running", "resumed" if resume else "")
-                stats = record(rig, store, schedule, start_step=start, progress=prog)
+                t0 = store.last_time() + 1.0 if resume and store.last_time() is not None else 0.0
+                stats = record(rig, store, schedule, start_step=start, session_t0=t0, progress=prog)
                 store.update_metadata(acquisition=stats)
         except KeyboardInterrupt:
             bar.close()
             store.set_status("aborted", "interrupted by the operator (SIGINT); the table was stopped and disabled")
-            store.update_metadata(ended=now_iso())
             click.echo(f"\naborted: {len(store.completed_holds())}/{len(schedule)} holds recorded in {out}; "
                        f"finish with: rig resume {out}", err=True)
             return 130
         except Exception as e:
             bar.close()
             store.set_status("failed", f"{type(e).__name__}: {e}")
-            store.update_metadata(ended=now_iso())
             raise click.ClickException(f"session failed: {e} (recorded holds are kept in {out}; "
                                        f"`rig resume {out}` continues)") from e
         bar.close()
     return finish_session(out, store, method=method)
 
 
-def finish_session(out: Path, store, *, method: str) -> int:
-    """Calibrate the recorded session, write calibration.json and the report, mark the session complete."""
-    from procedures.session import now_iso
+def finish_session(out: Path, store, *, method: str, settle_s: float = 0.0) -> int:
+    """Calibrate the recorded session, write calibration.json and the report, mark the session complete.
+
+    Holds are recorded after the table settled, so nothing is dropped from their start by default.
+    """
     from rig.io.calibration_json import write_calibration
     from rig.pipeline import calibrate_session
     from rig.report import write_report
 
     meta = store.metadata
     session = store.to_session_data()
-    result = calibrate_session(session, method=method)
+    result = calibrate_session(session, method=method, settle_s=settle_s)
     unit = meta.get("unit", {})
     write_calibration(out / "calibration.json", result.sensors, gravity=session.gravity, field_uT=session.field_uT,
                       unit_serial=unit.get("serial"), board=unit.get("board"),
                       extra={"session": str(out), "warnings": result.warnings})
     truth = meta.get("truth")
     limits = (meta.get("config") or {}).get("limits")
-    report = write_report(out, session, result.sensors, gravity=session.gravity, field_uT=session.field_uT,
-                          truth=truth, limits=limits, metadata=meta)
     store.set_status("complete", "")
-    store.update_metadata(ended=now_iso(), calibration="calibration.json", report=report.name)
+    report = write_report(out, session, result.sensors, gravity=session.gravity, field_uT=session.field_uT,
+                          truth=truth, limits=limits, metadata=store.metadata)
+    store.update_metadata(calibration="calibration.json", report=report.name)
     for line in result.summary:
         click.echo(line)
+    for line in result.warnings:
+        click.echo(f"warning: {line}", err=True)
     if truth:
         for line in truth_errors(result.sensors, truth):
             click.echo(line)
@@ -141,17 +144,24 @@ def truth_errors(sensors: dict, truth: dict) -> list[str]:
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True,
               help="Accelerometer/magnetometer estimator.")
 @click.option("--orientations", type=click.IntRange(6, 64), default=None, help="Override the schedule size.")
+@click.option("--gravity", type=float, default=None,
+              help="Local gravity in m/s^2 for imu_tk data (default 9.80665; interchange sessions carry their own).")
+@click.option("--settle-s", type=float, default=0.5, show_default=True,
+              help="With --from: seconds dropped at the start of each hold (settling).")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scale, method, orientations,
-              no_progress):
+              gravity, settle_s, no_progress):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if from_dir or fmt == "imu_tk":
         from rig.pipeline import calibrate_from_dir
 
         if fmt == "imu_tk" and not (accel and gyro):
             raise click.UsageError("--format imu_tk needs --accel FILE and --gyro FILE")
-        calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
-                           echo=click.echo)
+        try:
+            calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
+                               settle_s=settle_s, gravity=gravity, echo=click.echo)
+        except ValueError as e:
+            raise click.ClickException(str(e)) from None
         return
     if not sim and not config_path:
         raise click.UsageError("give --sim (simulated rig), --config rig.toml (real rig) or --from SESSION_DIR")

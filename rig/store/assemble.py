@@ -4,6 +4,9 @@ Of a hold (or move) recorded more than once for the same step, only the latest a
 a hold is repeated because the first one was disturbed (a bump), and a move is re-recorded when a
 resumed run drives to the orientation again. Two contiguous visits of one step would otherwise merge
 into one hold in `SessionData.hold_rows`. The superseded rows stay in the file.
+
+Segments are concatenated in the order they were committed; the store refuses a segment that starts
+before the last one ended, so this is also time order.
 """
 
 from __future__ import annotations
@@ -18,19 +21,18 @@ from rig.store.segment import sensor_columns
 
 DEFAULT_GRAVITY = 9.80665
 
-LATEST_SEGMENTS = """
-SELECT id, phase, step FROM segment AS s
+# Segments not superseded by a later-committed segment of the same phase and step. Commit order, not
+# the attempt number, decides: a resumed run may record a step again starting from attempt 1.
+LATEST = """
+FROM segment AS s
 WHERE NOT EXISTS (
-    SELECT 1 FROM segment AS later
-    WHERE later.phase = s.phase AND later.step = s.step
-      AND (later.attempt > s.attempt OR (later.attempt = s.attempt AND later.id > s.id)))
-ORDER BY t_start, id
+    SELECT 1 FROM segment AS later WHERE later.phase = s.phase AND later.step = s.step AND later.id > s.id)
 """
 
 
 def assemble_session(db: sqlite3.Connection, metadata: dict, source: str) -> SessionData:
-    segments = db.execute(LATEST_SEGMENTS).fetchall()
-    loaded = _load_arrays(db, [seg_id for seg_id, _, _ in segments])
+    segments = db.execute(f"SELECT id, phase, step {LATEST} ORDER BY id").fetchall()
+    loaded = _load_arrays(db)
     parts = [loaded.get(seg_id, {}) for seg_id, _, _ in segments]
     sizes = [part["t"].size for part in parts]
     sensors = list(dict.fromkeys(name[4:] for part in parts for name in part if name.startswith("raw:")))
@@ -53,14 +55,10 @@ def assemble_session(db: sqlite3.Connection, metadata: dict, source: str) -> Ses
     )
 
 
-def _load_arrays(db: sqlite3.Connection, ids: list[int]) -> dict[int, dict[str, np.ndarray]]:
+def _load_arrays(db: sqlite3.Connection) -> dict[int, dict[str, np.ndarray]]:
     out: dict[int, dict[str, np.ndarray]] = {}
-    if not ids:
-        return out
-    db.execute("CREATE TEMP TABLE IF NOT EXISTS wanted (id INTEGER PRIMARY KEY)")
-    db.execute("DELETE FROM wanted")
-    db.executemany("INSERT INTO wanted (id) VALUES (?)", [(i,) for i in ids])
-    rows = db.execute("SELECT segment_id, name, dtype, shape, data FROM array WHERE segment_id IN (SELECT id FROM wanted)")
+    rows = db.execute("SELECT segment_id, name, dtype, shape, data FROM array"
+                      f" WHERE segment_id IN (SELECT s.id {LATEST})")
     for seg_id, name, dtype, shape, blob in rows:
         try:
             out.setdefault(seg_id, {})[name] = arrays.decode(dtype, shape, blob)

@@ -1,8 +1,8 @@
 """The SQLite layout of a session file (`rig-session-sqlite/1`).
 
-Every table is append-only: a repeated hold is a new `segment` row with a higher `attempt`, a metadata
-change is a new `metadata` row for the same key. Readers take the latest row; nothing is overwritten,
-so a crash can only lose the transaction in progress.
+Every table is append-only: a repeated hold is a new `segment` row (its `attempt` is recorded), a
+metadata change is a new `metadata` row for the same key. Readers take the latest committed row;
+nothing is overwritten, so a crash can only lose the transaction in progress.
 
 - `segment`: one row per committed hold or move (phase, step, attempt, time span, commanded and
   measured table angles of a hold).

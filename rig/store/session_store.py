@@ -50,9 +50,9 @@ class SessionStore:
         path = folder / SESSION_FILE
         if path.exists():
             raise SessionStoreError(f"{path}: a session already exists here; use SessionStore.open or a new folder")
-        folder.mkdir(parents=True, exist_ok=True)
         initial = {"format": FORMAT, "start_utc": _utc_now(), **metadata, "status": "running", "status_reason": ""}
         encoded = _encode_metadata(path, initial)
+        folder.mkdir(parents=True, exist_ok=True)
         conn = _connect(path, uri=path.resolve().as_uri())
         store = cls(path, conn)
         with store._transaction() as db:
@@ -158,7 +158,7 @@ class SessionStore:
         return [{"t": t, "kind": kind, "message": message, "written_utc": utc} for t, kind, message, utc in rows]
 
     def to_session_data(self) -> SessionData:
-        """All committed rows in time order; of a hold or move recorded more than once, the latest attempt."""
+        """All committed rows in time order; of a hold or move recorded more than once, the last committed."""
         return assemble_session(self._db, self.metadata, source=str(self.path))
 
     # -- closing ---------------------------------------------------------------------------------
@@ -186,15 +186,21 @@ class SessionStore:
         db.execute("BEGIN IMMEDIATE")
         try:
             yield db
+            db.execute("COMMIT")
         except BaseException:
-            db.execute("ROLLBACK")
+            if db.in_transaction:
+                db.execute("ROLLBACK")
             raise
-        db.execute("COMMIT")
 
-    @staticmethod
-    def _insert_segment(db: sqlite3.Connection, phase: str, step: int, attempt: int,
+    def _insert_segment(self, db: sqlite3.Connection, phase: str, step: int, attempt: int,
                         data: dict[str, np.ndarray], angles: tuple) -> int:
         t = data["t"]
+        (last_end,) = db.execute("SELECT max(t_end) FROM segment").fetchone()
+        if last_end is not None and t[0] < last_end:
+            raise ValueError(
+                f"{self.path}: append_{phase}(step={step}): t starts at {float(t[0])!r} s, before the end of the "
+                f"last committed segment ({last_end!r} s); session time must not run backwards (a resumed run "
+                "continues the clock from SessionStore.last_time())")
         cursor = db.execute(
             "INSERT INTO segment (phase, step, attempt, t_start, t_end, n_rows, commanded_outer_deg,"
             " commanded_inner_deg, measured_outer_deg, measured_inner_deg, written_utc)"

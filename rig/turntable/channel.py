@@ -43,7 +43,7 @@ class ModbusChannel:
         for attempt in range(self.retries + 1):
             if self.client.connect():
                 return
-            self._backoff(attempt, f"connect to {self.address}")
+            self.backoff(attempt, f"connect to {self.address}")
         self.client = None
         raise CommunicationError(f"cannot connect to turntable at {self.address} "
                                  f"after {self.retries + 1} attempts")
@@ -88,7 +88,7 @@ class ModbusChannel:
                 problem = f"response has {len(rr.registers)} registers, asked for {count}"
             self.failures += 1
             if attempt + 1 < attempts:
-                self._backoff(attempt, f"FC{fc:02d} {register} @0x{address:04X} ({problem})")
+                self.backoff(attempt, f"FC{fc:02d} {register} @0x{address:04X} ({problem})")
         where = f"FC{fc:02d} {register} @0x{address:04X} on {self.address}"
         if not idempotent:
             raise ResponseLost(f"{where}: no valid response ({problem}); not re-sent")
@@ -100,7 +100,7 @@ class ModbusChannel:
         if not self.address.is_serial_client or isinstance(exc, ConnectionException):
             self.client.close()
 
-    def _backoff(self, attempt: int, what: str) -> None:
+    def backoff(self, attempt: int, what: str) -> None:
         delay = min(self.backoff_s * 2 ** attempt, self.backoff_max_s)
         log.warning("turntable: %s failed, retry %d/%d in %.3f s", what, attempt + 1, self.retries, delay)
         self.clock.sleep(delay)

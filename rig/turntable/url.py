@@ -103,8 +103,10 @@ def make_client(address: LinkAddress, timeout: float) -> ModbusTcpClient | Modbu
     if address.scheme == "tcp":
         return ModbusTcpClient(address.host, port=address.port, timeout=timeout, retries=0)
     if address.scheme == "rtu+socket":
+        # pyserial's socket:// reports in_waiting as 0/1, so pymodbus reads one byte per receive
+        # interval (max(4 char times, 1 ms)): the default 115200 baud keeps that interval at 1 ms.
         return ModbusSerialClient(f"socket://{address.host}:{address.port}", framer=FramerType.RTU,
-                                  timeout=timeout, retries=0)
+                                  baudrate=address.baud, timeout=timeout, retries=0)
     return ModbusSerialClient(address.device, framer=FramerType.RTU, baudrate=address.baud,
                               parity=address.parity, stopbits=address.stopbits, bytesize=address.bytesize,
                               timeout=timeout, retries=0)

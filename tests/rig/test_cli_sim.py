@@ -58,7 +58,7 @@ def test_sim_session_store_is_complete(sim_session):
 def test_export_then_calibrate_from_gives_the_same_calibration(sim_session, tmp_path):
     out, _ = sim_session
     run("export", str(out), "--to", str(tmp_path / "exported"))
-    run("calibrate", "--from", str(tmp_path / "exported"), "--out", str(tmp_path / "again"))
+    run("calibrate", "--from", str(tmp_path / "exported"), "--settle-s", "0", "--out", str(tmp_path / "again"))
     a = json.loads((out / "calibration.json").read_text())
     b = json.loads((tmp_path / "again" / "calibration.json").read_text())
     for name in ("accel", "gyro", "mag"):
