@@ -64,25 +64,12 @@ def world_and_turntable_150s() -> dict:
     with TurntableServer(tt) as srv, TurntableLink(srv.url, clock=clock, poll_interval=0.1) as link:
         link.enable()
         for o in schedule:
-            link.clock = _Proxy(clock, sample)
-            link.move_to(o.outer_deg, o.inner_deg, speed_dps=60, accel_dps2=120, settle_s=0.3)
-            link.clock = clock
+            link.move_to(o.outer_deg, o.inner_deg, speed_dps=60, accel_dps2=120, settle_s=0.3, wait=sample)
             sample(5.0)
         link.make_safe()
     wall = time.perf_counter() - t0
     return {"rig_time_s": round(clock.now(), 1), "wall_s": round(wall, 3), "samples": k[0] * 2 + k[0] // 2,
             "target_wall_s_per_150s": 1.0, "wall_s_per_150s": round(wall * 150.0 / clock.now(), 3)}
-
-
-class _Proxy:
-    def __init__(self, clock, wait):
-        self.clock, self.wait = clock, wait
-
-    def now(self):
-        return self.clock.now()
-
-    def sleep(self, dt):
-        self.wait(dt)
 
 
 def direct_session_ms() -> float:

@@ -57,50 +57,10 @@ def build_real(config: RigConfig) -> Rig:
     return Rig(config, clock, link, board, _stack=stack)
 
 
-def _link(config: RigConfig, clock: Clock, url: str | None = None) -> "SamplingTable":
+def _link(config: RigConfig, clock: Clock, url: str | None = None) -> TurntableLink:
     rate = config.schedule.rate_hz
-    return SamplingTable(TurntableLink(url or config.turntable.url, profile=config.turntable.profile, clock=clock,
-                                       poll_interval=config.turntable.poll_every / rate))
-
-
-class _WaitClock:
-    """A clock whose sleeps are spent in `wait` (sampling the sensors) instead of idling."""
-
-    def __init__(self, clock: Clock, wait) -> None:
-        self._clock, self._wait = clock, wait
-
-    def now(self) -> float:
-        return self._clock.now()
-
-    def sleep(self, dt: float) -> None:
-        self._wait(dt)
-
-
-class SamplingTable:
-    """The turntable link as `procedures.protocols.Table`: a move's waits between polls go to `wait`."""
-
-    def __init__(self, link: TurntableLink) -> None:
-        self.link = link
-
-    def __getattr__(self, name):
-        return getattr(self.link, name)
-
-    def __enter__(self) -> "SamplingTable":
-        self.link.__enter__()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.link.__exit__(*exc)
-
-    def move_to(self, outer_deg, inner_deg, *, wait=None, **kw):
-        if wait is None:
-            return self.link.move_to(outer_deg, inner_deg, **kw)
-        clock = self.link.clock
-        self.link.clock = _WaitClock(clock, wait)
-        try:
-            return self.link.move_to(outer_deg, inner_deg, **kw)
-        finally:
-            self.link.clock = clock
+    return TurntableLink(url or config.turntable.url, profile=config.turntable.profile, clock=clock,
+                         poll_interval=config.turntable.poll_every / rate)
 
 
 def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: float | None = None) -> Rig:

@@ -170,14 +170,16 @@ class TurntableLink:
     # ---- motion -----------------------------------------------------------------------------------
     def move_to(self, outer_deg: float, inner_deg: float, speed_dps: float = 30.0, accel_dps2: float = 60.0,
                 tolerance_deg: float = 0.01, settle_s: float = 0.2, timeout: float | None = None,
-                decel_dps2: float | None = None, on_poll: PollHook | None = None) -> list[AxisStatus]:
+                decel_dps2: float | None = None, on_poll: PollHook | None = None,
+                wait: Callable[[float], None] | None = None) -> list[AxisStatus]:
         """Move both axes together to absolute angles and return once both are in position and settled.
 
         Follows the map's move protocol: FC16 TARGET_POS/TARGET_VEL/ACCEL/DECEL, FC06 COMMAND=MOVE_ABS,
         then poll until CMD_SEQ advanced past its value before the command, IN_POSITION and
         |ACTUAL_POS - target| <= tolerance, for `settle_s`. The default timeout is 1.5 x the longer
         axis's trapezoid time + settle + 2 s. On any failure the table is stopped. Returns the axes'
-        status at the end of the settle time; `on_poll` sees every poll (for logging encoder angles).
+        status at the end of the settle time; `on_poll` sees every poll (for logging encoder angles);
+        `wait(dt)` replaces the clock's sleep between polls (a procedure samples its sensors there).
         """
         targets = (float(outer_deg), float(inner_deg))
         decel = accel_dps2 if decel_dps2 is None else decel_dps2
@@ -201,7 +203,7 @@ class TurntableLink:
             def arrived(st: AxisStatus) -> bool:
                 return st.has("IN_POSITION") and abs(st.position_deg - targets[st.axis]) <= tolerance_deg
 
-            return self._wait(before, arrived, deadline, timeout, settle_s, on_poll,
+            return self._wait(before, arrived, deadline, timeout, settle_s, on_poll, wait,
                               lambda a: f"{targets[a]:.4f} deg (+-{tolerance_deg} deg)")
 
     def home(self, timeout: float = 120.0, speed_dps: float = 10.0, accel_dps2: float = 20.0,
@@ -225,7 +227,7 @@ class TurntableLink:
             def homed(st: AxisStatus) -> bool:
                 return st.has("HOMED") and not st.has("HOMING") and not st.has("MOVING")
 
-            self._wait(before, homed, deadline, timeout, 0.0, on_poll, lambda a: "HOMED")
+            self._wait(before, homed, deadline, timeout, 0.0, on_poll, None, lambda a: "HOMED")
 
     def move_velocity(self, axis: int | str, rate_dps: float, accel_dps2: float) -> None:
         """Rate mode: the axis ramps to `rate_dps` (signed) and keeps turning until `stop()`.
@@ -257,7 +259,8 @@ class TurntableLink:
             raise TableAlarm(f"{self.url}: alarm {st.alarm}; {st.describe()}", axis=st.axis, alarm=st.alarm)
 
     def _wait(self, before: list[AxisStatus], goal: Goal, deadline: float, timeout: float, settle_s: float,
-              on_poll: PollHook | None, describe_goal: Callable[[int], str]) -> list[AxisStatus]:
+              on_poll: PollHook | None, wait: Callable[[float], None] | None,
+              describe_goal: Callable[[int], str]) -> list[AxisStatus]:
         """Poll every axis once per interval until each accepted its command and meets `goal` for `settle_s`."""
         seq0 = {b.axis: b.cmd_seq for b in before}
         accepted = {a: False for a in seq0}
@@ -284,7 +287,7 @@ class TurntableLink:
                     goal_text = describe_goal(late.axis) if accepted[late.axis] else "CMD_SEQ advance (command accepted)"
                     raise MoveTimeout(late.axis, late.name, goal_text, late.position_deg, late.flags, late.alarm,
                                       timeout)
-            self.clock.sleep(self.poll_interval)
+            (wait or self.clock.sleep)(self.poll_interval)
 
     def _command(self, axis: int, name: str, seq_before: int) -> None:
         """FC06 COMMAND. A lost response is resolved by reading CMD_SEQ: advanced means accepted; unchanged
