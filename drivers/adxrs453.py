@@ -186,9 +186,14 @@ class ADXRS453:
 
     # -- data ----------------------------------------------------------------------------------------------
 
-    def read_raw(self) -> int:
-        """Rate in counts (80 LSB per deg/s); the sample is the one latched at this frame."""
-        if self._pending != SENSOR_DATA:
+    def read_raw(self, fresh: bool = False) -> int:
+        """Rate in counts (80 LSB per deg/s).
+
+        The answer to a sensor-data request comes in the next frame, so a plain read returns the rate
+        latched at the previous call. `fresh=True` spends one extra frame to latch the rate now (ADI's
+        read-twice pattern), so the sample belongs to this call's time stamp.
+        """
+        if fresh or self._pending != SENSOR_DATA:
             self._exchange(SENSOR_DATA)
         try:
             rx = self.spi.xfer2([0x20, 0x00, 0x00, 0x00])
@@ -253,8 +258,9 @@ class GyroTriad:
             gyro.start()
 
     def read_raw(self) -> tuple[int, int, int]:
+        """The three rates latched now (fresh reads), so the triad's sample matches its time stamp."""
         x, y, z = self.gyros
-        return x.read_raw(), y.read_raw(), z.read_raw()
+        return x.read_raw(True), y.read_raw(True), z.read_raw(True)
 
     def read_temperatures(self) -> tuple[float, float, float]:
         x, y, z = self.gyros

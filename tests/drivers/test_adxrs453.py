@@ -162,11 +162,12 @@ def test_register_read_validation():
         ADXRS453(object()).write_register(0x02, 1)
 
 
-def test_triad_reads_three_chips(sleeps):
-    rates = (11, -22, 33)
-    with expected_protocol("spi", START + [frame(SD, rate_response(rates[0]))]) as sx, \
-         expected_protocol("spi", START + [frame(SD, rate_response(rates[1]))]) as sy, \
-         expected_protocol("spi", START + [frame(SD, rate_response(rates[2]))]) as sz:
+def test_triad_reads_three_chips_fresh(sleeps):
+    """Each chip gets a priming frame whose (stale) answer is dropped, then the frame with the rate latched now."""
+    rates, stale = (11, -22, 33), rate_response(999)
+    with expected_protocol("spi", START + [frame(SD, stale), frame(SD, rate_response(rates[0]))]) as sx, \
+         expected_protocol("spi", START + [frame(SD, stale), frame(SD, rate_response(rates[1]))]) as sy, \
+         expected_protocol("spi", START + [frame(SD, stale), frame(SD, rate_response(rates[2]))]) as sz:
         triad = GyroTriad([ADXRS453(s, cs=f"cs{i}", sleep=sleeps) for i, s in enumerate((sx, sy, sz))])
         triad.start()
         assert triad.read_raw() == rates
