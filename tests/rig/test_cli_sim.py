@@ -114,3 +114,21 @@ def test_sigint_marks_the_session_aborted_and_exits_nonzero(tmp_path):
 
     assert SessionStore.open(out).status[0] == "aborted"
     assert "rig resume" in err
+
+
+def test_repeatability_reports_the_spread_of_every_element(tmp_path):
+    out = tmp_path / "rep"
+    run("repeatability", "--sim", "--trials", "2", "--orientations", "12", "--out", str(out))
+    cals = [json.loads((out / f"trial-00{k}" / "calibration.json").read_text()) for k in (1, 2)]
+    truths = [json.loads((out / f"trial-00{k}" / "truth.json").read_text()) for k in (1, 2)]
+    assert truths[0]["sensors"] == truths[1]["sensors"]             # the same simulated unit
+    assert cals[0]["sensors"]["accel"]["B"] != cals[1]["sensors"]["accel"]["B"]   # new noise each trial
+    data = json.loads((out / "repeatability.json").read_text())
+    b0 = [c["sensors"]["gyro"]["B"][0] for c in cals]
+    h11 = [c["sensors"]["accel"]["H"][1][1] for c in cals]
+    gyro, accel = data["sensors"]["gyro"], data["sensors"]["accel"]
+    assert gyro["mean"][gyro["elements"].index("B[0]")] == pytest.approx(np.mean(b0), rel=1e-9)
+    assert gyro["std"][gyro["elements"].index("B[0]")] == pytest.approx(np.std(b0, ddof=1), rel=1e-6)
+    assert accel["mean"][accel["elements"].index("H[1,1]")] == pytest.approx(np.mean(h11), rel=1e-9)
+    assert (out / "repeatability.md").exists() and (out / "repeatability_gyro.png").exists()
+
