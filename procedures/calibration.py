@@ -34,6 +34,9 @@ class MotionSettings:
     max_hold_attempts: int = 3
 
 
+HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdog, cheap on the bus
+
+
 class HoldFailed(RuntimeError):
     """A hold kept moving after every allowed attempt."""
 
@@ -92,17 +95,19 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
 def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
                  step: int, m: MotionSettings) -> Recording:
     ticks = int(round(m.hold_s * m.rate_hz))
+    chunk = max(int(round(HOLD_POLL_S * m.rate_hz)), 1)
     for attempt in range(1, m.max_hold_attempts + 1):
-        before = table.positions()
-        sampler.run(ticks)
-        after = table.positions()
+        readings = [table.positions()]
+        for k in range(0, ticks, chunk):
+            sampler.run(min(chunk, ticks - k))
+            readings.append(table.positions())      # encoder log, and a keep-alive for the table's watchdog
         rec = sampler.take()
         moved = hold_has_motion(rec, rate_hz=m.rate_hz)
-        drift = max(abs(a - b) for a, b in zip(before, after))
+        drift = float(np.ptp(np.asarray(readings), axis=0).max())
         if drift > m.tolerance_deg:
             moved = f"encoders moved {drift:.4f} deg during the hold"
         if moved is None or attempt == m.max_hold_attempts:
-            measured = tuple(0.5 * (a + b) for a, b in zip(before, after))
+            measured = tuple(float(v) for v in np.mean(readings, axis=0))
             table_deg = np.tile(measured, (rec.t.size, 1))
             q = quat_from_matrix(geometry.rotation(*measured))
             if moved is not None:
