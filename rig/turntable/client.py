@@ -190,9 +190,10 @@ class TurntableLink:
         scale = self.profile.units_per_degree
         with self._stop_on_failure():
             before = self._check_can_move()
+            expected = max(profile_time(t - b.position_deg, speed_dps, accel_dps2, decel)
+                           for t, b in zip(targets, before))
             if timeout is None:
-                timeout = 1.5 * max(profile_time(t - b.position_deg, speed_dps, accel_dps2, decel)
-                                    for t, b in zip(targets, before)) + settle_s + 2.0 + 4 * self.poll_interval
+                timeout = 1.5 * expected + settle_s + 2.0 + 4 * self.poll_interval
             for a, target in zip(self.axes, targets):
                 self._write_axis_block(a, {"TARGET_POS": round(target * scale), "TARGET_VEL": round(speed_dps * scale),
                                            "ACCEL": round(accel_dps2 * scale), "DECEL": round(decel * scale)})
@@ -204,7 +205,8 @@ class TurntableLink:
                 return st.has("IN_POSITION") and abs(st.position_deg - targets[st.axis]) <= tolerance_deg
 
             return self._wait(before, arrived, deadline, timeout, settle_s, on_poll, wait,
-                              lambda a: f"{targets[a]:.4f} deg (+-{tolerance_deg} deg)")
+                              lambda a: f"{targets[a]:.4f} deg (+-{tolerance_deg} deg)",
+                              expected_end=self.clock.now() + expected)
 
     def home(self, timeout: float = 120.0, speed_dps: float = 10.0, accel_dps2: float = 20.0,
              on_poll: PollHook | None = None) -> None:
@@ -260,8 +262,13 @@ class TurntableLink:
 
     def _wait(self, before: list[AxisStatus], goal: Goal, deadline: float, timeout: float, settle_s: float,
               on_poll: PollHook | None, wait: Callable[[float], None] | None,
-              describe_goal: Callable[[int], str]) -> list[AxisStatus]:
-        """Poll every axis once per interval until each accepted its command and meets `goal` for `settle_s`."""
+              describe_goal: Callable[[int], str], expected_end: float | None = None) -> list[AxisStatus]:
+        """Poll every axis once per interval until each accepted its command and meets `goal` for `settle_s`.
+
+        Without a `wait` (nobody samples during the move), polls are spaced out while the profile says
+        arrival is far off (half the time left, at most 0.5 s): a long move then costs a few requests, not
+        one per interval, on the bus and on a simulated clock.
+        """
         seq0 = {b.axis: b.cmd_seq for b in before}
         accepted = {a: False for a in seq0}
         since: float | None = None
@@ -287,7 +294,11 @@ class TurntableLink:
                     goal_text = describe_goal(late.axis) if accepted[late.axis] else "CMD_SEQ advance (command accepted)"
                     raise MoveTimeout(late.axis, late.name, goal_text, late.position_deg, late.flags, late.alarm,
                                       timeout)
-            (wait or self.clock.sleep)(self.poll_interval)
+            if wait is not None:
+                wait(self.poll_interval)
+            else:
+                left = 0.0 if expected_end is None else expected_end - now
+                self.clock.sleep(max(self.poll_interval, min(0.5, 0.5 * left)))
 
     def _command(self, axis: int, name: str, seq_before: int) -> None:
         """FC06 COMMAND. A lost response is resolved by reading CMD_SEQ: advanced means accepted; unchanged

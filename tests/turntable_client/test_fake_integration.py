@@ -194,3 +194,23 @@ def test_home(fake, clock):
         st = link.status()
         assert all(a.has("HOMED") and not a.has("HOMING") for a in st.axes)
         assert link.positions() == pytest.approx((0.0, 0.0), abs=0.001)
+
+
+def test_a_100s_simulated_move_takes_milliseconds_of_wall_time():
+    """With a simulated clock the client's waits cost nothing; polls are spaced while arrival is far off."""
+    import time as _time
+
+    from fixtures.turntable import FakeTurntable, TurntableServer
+    from rig.clock import SimClock
+    from rig.turntable import TurntableLink
+
+    clock = SimClock()
+    tt = FakeTurntable(clock, soft_limits=((-4000.0, 4000.0), (-4000.0, 4000.0)))
+    with TurntableServer(tt) as srv, TurntableLink(srv.url, clock=clock) as link:
+        link.enable()
+        start = _time.perf_counter()
+        link.move_to(3000.0, 0.0, speed_dps=30.0, accel_dps2=60.0)
+        wall = _time.perf_counter() - start
+        assert clock.now() > 100.0
+        assert link.positions()[0] == pytest.approx(3000.0, abs=0.01)
+    assert wall < 0.3
