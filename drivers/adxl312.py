@@ -87,7 +87,22 @@ class ADXL312:
         self.regs.write(FIFO_CTL, FIFO_BYPASS)
         self.regs.write(POWER_CTL, MEASURE)
         self.sleep(1.0 / self.rate_hz + 1.1e-3)  # turn-on time tau + 1.1 ms (datasheet p.4 note 5)
+        self._discard_first_sample()
         self.started = True
+
+    def _discard_first_sample(self) -> None:
+        """Wait for DATA_READY and drop that sample: the turn-on time is only typical (no maximum is given),
+        and until the first conversion the data registers hold zeros."""
+        period = 1.0 / self.rate_hz
+        step = min(period / 4, 5e-3)
+        polls = int((period + 1.1e-3) / step) + 2
+        for _ in range(polls):
+            if self.regs.read(INT_SOURCE) & INT_DATA_READY:
+                self.read_raw()
+                return
+            self.sleep(step)
+        raise SensorFault(f"{self.regs.where(INT_SOURCE)}: DATA_READY not set within "
+                          f"{(polls * step + period) * 1e3:.1f} ms of MEASURE")
 
     def set_range(self, range_g: float) -> None:
         """Change the range (+-1.5/3/6/12 g); written at once if started."""

@@ -51,20 +51,29 @@ class HMC5843:
         self.started = False
 
     def start(self) -> None:
-        """ID 'H43' -> CONFIG_A (rate, normal bias) -> CONFIG_B (gain) -> MODE continuous -> discard first sample.
-
-        The first conversion after a gain change still uses the old gain (HMC5883L datasheet p.13, assumed
-        for HMC5843), so the first sample is waited for and dropped.
-        """
+        """ID 'H43' -> CONFIG_A (rate, normal bias) -> CONFIG_B (gain) -> MODE continuous -> settle."""
         ident = self.regs.read_block(ID_A, 3)
         if ident != IDENTITY:
             raise WrongIdentity(f"{self.regs.where(ID_A)}..0x0C: read {ident!r}, expected {IDENTITY!r}")
         self.regs.write(CONFIG_A, (self._rate_code << 2) | MS_NORMAL)
         self.regs.write(CONFIG_B, self._gain_code << 5)
         self.regs.write(MODE, MODE_CONTINUOUS)
+        self._settle()
+        self.started = True
+
+    def _settle(self) -> None:
+        """Wait on time, not on RDY, until a sample converted with the new settings is in the registers.
+
+        RDY is not cleared by reading (datasheet p.15: it "cannot be cleared until new data is placed in
+        all the output registers"), so on a chip that measured before it says nothing about new settings.
+        The first sample comes 2/rate after configuring and may still use the old gain (HMC5883L p.13,
+        assumed here): wait for it, drop it, and wait one more period.
+        """
+        period = 1.0 / self.rate_hz
+        self.sleep(2.2 * period)
         self.wait_ready()
         self.regs.read_block(DATA_X_MSB, 6)
-        self.started = True
+        self.sleep(1.1 * period)
 
     def wait_ready(self) -> None:
         """Poll STATUS.RDY like the kernel (bounded); SensorFault if no conversion completes."""
@@ -76,18 +85,20 @@ class HMC5843:
                           f"{READY_POLL_S * 1e3:g} ms apart")
 
     def set_gain(self, gain: int) -> None:
-        """Change CONFIG_B gain (LSB per gauss); the next sample may still use the old gain."""
+        """Change CONFIG_B gain (LSB per gauss) and wait until samples use it."""
         code = choose(gain, GAIN_CODES, "gain", self.chip, " LSB/Ga")
+        self._gain_code, self.gain = code, int(gain)
         if self.started:
             self.regs.write(CONFIG_B, code << 5)
-        self._gain_code, self.gain = code, int(gain)
+            self._settle()
 
     def set_rate(self, rate_hz: float) -> None:
-        """Change the CONFIG_A data output rate."""
+        """Change the CONFIG_A data output rate and wait until samples come at it."""
         code = choose(rate_hz, RATE_CODES, "output rate", self.chip, " Hz")
+        self._rate_code, self.rate_hz = code, float(rate_hz)
         if self.started:
             self.regs.write(CONFIG_A, (code << 2) | MS_NORMAL)
-        self._rate_code, self.rate_hz = code, float(rate_hz)
+            self._settle()
 
     def sleep_mode(self) -> None:
         """MODE = sleep (kernel suspend); `start()` wakes it again."""
@@ -108,7 +119,7 @@ class HMC5843:
         return xyz
 
     def data_ready(self) -> bool:
-        """STATUS.RDY."""
+        """STATUS.RDY: a sample exists (it stays set once the chip has measured; reading does not clear it)."""
         return bool(self.regs.read(STATUS) & STATUS_RDY)
 
     def settings(self) -> dict:

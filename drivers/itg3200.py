@@ -95,7 +95,25 @@ class ITG3200:
         if dlpf_fs != FS_SEL_2000 | self._dlpf_code:
             raise SensorFault(f"{self.regs.where(DLPF_FS)}: read back 0x{dlpf_fs:02X}, wrote "
                               f"0x{FS_SEL_2000 | self._dlpf_code:02X}")
+        self._discard_first_sample()
         self.started = True
+
+    def _discard_first_sample(self) -> None:
+        """Wait for RAW_DATA_RDY and drop that sample.
+
+        ITG_RDY only says the PLL runs; the data registers may still hold reset zeros or a sample taken
+        before FS_SEL and the rate were set, for up to one sample period after configuring.
+        """
+        period = 1.0 / self.rate_hz
+        step = min(period / 4, READY_POLL_S)
+        polls = int((2 * period + 0.05) / step) + 1
+        for _ in range(polls):
+            if self.regs.read(INT_STATUS) & RAW_DATA_RDY:
+                self.read_raw()
+                return
+            self.sleep(step)
+        raise SensorFault(f"{self.regs.where(INT_STATUS)}: RAW_DATA_RDY not set within "
+                          f"{polls * step * 1e3:.0f} ms of configuring {self.rate_hz:g} Hz")
 
     def _wait_pll_ready(self) -> None:
         for _ in range(READY_POLLS):

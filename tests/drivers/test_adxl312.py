@@ -10,7 +10,7 @@ from drivers import ADXL312, DeviceAbsent, FifoOverrun, SensorFault, WrongIdenti
 from tests.drivers.conftest import expected_protocol, nack
 
 A = 0x53
-START_I2C = [
+START_I2C_CONFIG = [
     ("r", A, 0x00, 0xE5),
     ("w", A, 0x2D, 0x00, None),      # POWER_CTL standby while configuring
     ("w", A, 0x31, 0x0B, None),      # DATA_FORMAT FULL_RES | range +-12 g
@@ -19,6 +19,8 @@ START_I2C = [
     ("w", A, 0x38, 0x00, None),      # FIFO_CTL bypass
     ("w", A, 0x2D, 0x08, None),      # POWER_CTL MEASURE
 ]
+FIRST_SAMPLE = [("r", A, 0x30, 0x82), ("rb", A, 0x32, 6, [0] * 6)]   # wait for DATA_READY, drop the sample
+START_I2C = START_I2C_CONFIG + FIRST_SAMPLE
 
 
 def started_i2c(bus, sleeps, **kw):
@@ -36,14 +38,28 @@ def test_i2c_start_up_sequence_and_turn_on_wait(sleeps):
 def test_range_and_rate_codes_reach_the_registers(sleeps):
     steps = [("r", A, 0x00, 0xE5), ("w", A, 0x2D, 0x00, None), ("w", A, 0x31, 0x08, None),
              ("w", A, 0x2C, 0x0F, None), ("w", A, 0x2E, 0x00, None), ("w", A, 0x38, 0x00, None),
-             ("w", A, 0x2D, 0x08, None)]
+             ("w", A, 0x2D, 0x08, None)] + FIRST_SAMPLE
     with expected_protocol("i2c", steps) as bus:
         started_i2c(bus, sleeps, range_g=1.5, rate_hz=3200)
 
 
+def test_start_waits_for_the_first_conversion_beyond_the_typical_turn_on(sleeps):
+    """The turn-on time is typical only: a slower part has no data yet, so DATA_READY is polled."""
+    with expected_protocol("i2c", START_I2C_CONFIG + [("r", A, 0x30, 0x02)] * 2 + FIRST_SAMPLE) as bus:
+        started_i2c(bus, sleeps)
+    assert sleeps == [pytest.approx(1 / 100 + 1.1e-3), 2.5e-3, 2.5e-3]
+
+
+def test_no_conversion_after_measure_is_a_bounded_sensor_fault(sleeps):
+    with expected_protocol("i2c", START_I2C_CONFIG + [("r", A, 0x30, 0x02)] * 6) as bus:
+        with pytest.raises(SensorFault, match="DATA_READY not set"):
+            started_i2c(bus, sleeps)
+
+
 def test_spi_start_up_uses_read_bit_and_plain_write_address(sleeps):
     steps = [("x", (0x80, 0x00), [0x00, 0xE5])] + [
-        ("x", (reg, value), [0x00, 0x00]) for _, _, reg, value, _ in START_I2C[1:]]
+        ("x", (reg, value), [0x00, 0x00]) for _, _, reg, value, _ in START_I2C_CONFIG[1:]] + [
+        ("x", (0xB0, 0x00), [0x00, 0x80]), ("x", (0xF2, 0, 0, 0, 0, 0, 0), [0x00] * 7)]
     with expected_protocol("spi", steps) as spi:
         ADXL312(spi, sleep=sleeps).start()
 

@@ -22,14 +22,32 @@ def start_steps(who=0x68, dlpf_fs=0x1B, divider=9, status=(0x04,)):
     return steps
 
 
+FIRST_SAMPLE = [("r", A, 0x1A, 0x01), ("rb", A, 0x1D, 6, [0x7F] * 6)]   # wait for data, drop it
+
+
 def test_start_up_sequence_plain_addresses(sleeps):
-    with expected_protocol("i2c", start_steps() + [("r", A, 0x16, 0x1B)]) as bus:
+    with expected_protocol("i2c", start_steps() + [("r", A, 0x16, 0x1B)] + FIRST_SAMPLE) as bus:
         ITG3200(bus, sleep=sleeps).start()
     assert sleeps == [1.5e-3]
 
 
+def test_start_waits_for_a_sample_taken_with_the_new_settings(sleeps):
+    """ITG_RDY is only the PLL: the data registers may hold pre-configuration values until RAW_DATA_RDY."""
+    waiting = [("r", A, 0x1A, 0x00)] * 3
+    with expected_protocol("i2c", start_steps() + [("r", A, 0x16, 0x1B)] + waiting + FIRST_SAMPLE) as bus:
+        ITG3200(bus, sleep=sleeps).start()
+    assert sleeps == [1.5e-3, 2.5e-3, 2.5e-3, 2.5e-3]
+
+
+def test_no_data_after_configuring_is_a_bounded_sensor_fault(sleeps):
+    steps = start_steps() + [("r", A, 0x16, 0x1B)] + [("r", A, 0x1A, 0x00)] * 29
+    with expected_protocol("i2c", steps) as bus:
+        with pytest.raises(SensorFault, match="RAW_DATA_RDY not set"):
+            ITG3200(bus, sleep=sleeps).start()
+
+
 def test_who_am_i_with_ad0_high_is_accepted(sleeps):
-    steps = [(op, 0x69, *rest) for op, _, *rest in start_steps(who=0x69) + [("r", A, 0x16, 0x1B)]]
+    steps = [(op, 0x69, *rest) for op, _, *rest in start_steps(who=0x69) + [("r", A, 0x16, 0x1B)] + FIRST_SAMPLE]
     with expected_protocol("i2c", steps) as bus:
         ITG3200(bus, address=0x69, sleep=sleeps).start()
 
@@ -48,7 +66,8 @@ def test_absent_chip(sleeps):
 
 
 def test_pll_ready_wait_polls_until_set(sleeps):
-    with expected_protocol("i2c", start_steps(status=(0x00, 0x01, 0x05)) + [("r", A, 0x16, 0x1B)]) as bus:
+    with expected_protocol("i2c", start_steps(status=(0x00, 0x01, 0x05)) + [("r", A, 0x16, 0x1B)]
+                           + FIRST_SAMPLE) as bus:
         ITG3200(bus, sleep=sleeps).start()
     assert sleeps == [1.5e-3, 5e-3, 5e-3]
 
@@ -67,7 +86,7 @@ def test_dlpf_fs_read_back_mismatch_fails_start(sleeps):
 
 
 def test_8khz_internal_rate_with_256hz_filter(sleeps):
-    steps = start_steps(dlpf_fs=0x18, divider=19) + [("r", A, 0x16, 0x18)]
+    steps = start_steps(dlpf_fs=0x18, divider=19) + [("r", A, 0x16, 0x18)] + FIRST_SAMPLE
     with expected_protocol("i2c", steps) as bus:
         ITG3200(bus, rate_hz=400, dlpf_hz=256, sleep=sleeps).start()
 
@@ -100,7 +119,7 @@ def test_temperature_formula(raw, celsius, sleeps):
 
 
 def test_data_ready_and_rate_change(sleeps):
-    steps = start_steps() + [("r", A, 0x16, 0x1B), ("r", A, 0x1A, 0x01), ("r", A, 0x1A, 0x00),
+    steps = start_steps() + [("r", A, 0x16, 0x1B)] + FIRST_SAMPLE + [("r", A, 0x1A, 0x01), ("r", A, 0x1A, 0x00),
                              ("w", A, 0x15, 19, None)]
     with expected_protocol("i2c", steps) as bus:
         gyro = ITG3200(bus, sleep=sleeps)
