@@ -67,7 +67,7 @@ def calibrate_session(session: SessionData, *, method: str = "two-step", settle_
     sensors: dict[str, TriadCalibration] = {}
     for name in session.sensors:
         if name == "gyro":
-            sensors[name] = _calibrate_gyro(session, holds[name], excluded, warnings)
+            sensors[name] = _calibrate_gyro(session, holds[name], excluded, warnings, settle_s)
         else:
             sensors[name] = _calibrate_vector(session, name, holds[name], method, warnings)
         _check_result(name, sensors[name], _reference_norm(session, name), warnings)
@@ -318,12 +318,12 @@ def jackknife_std(solve: Callable[..., TriadCalibration], y: np.ndarray, R: np.n
 
 
 def _calibrate_gyro(session: SessionData, h: HoldStats, excluded: dict[int, str],
-                    warnings: list[str]) -> TriadCalibration:
+                    warnings: list[str], settle_s: float = 0.0) -> TriadCalibration:
     """B from the still holds (eq. 41), H from the moves between trusted holds."""
     if len(h.step) < 1:
         raise CalibrationError("gyro: no usable hold to take the bias from")
     B = np.asarray(_solver("gyro", "gyro_bias")(h.mean, h.count), dtype=float)
-    moves = _trusted_moves(session, excluded, warnings)
+    moves = _trusted_moves(session, excluded, warnings, settle_s)
     if len(moves) < MIN_GYRO_MOVES:
         raise CalibrationError(f"gyro: {len(moves)} usable moves between holds, need at least {MIN_GYRO_MOVES}")
     _check_move_axes(moves)
@@ -333,13 +333,14 @@ def _calibrate_gyro(session: SessionData, h: HoldStats, excluded: dict[int, str]
     return cal
 
 
-def _trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list[str]) -> list[MoveStream]:
-    order = [j for j, _ in session.hold_rows()]
+def _trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list[str],
+                   settle_s: float = 0.0) -> list[MoveStream]:
+    order = [j for j, _ in session.hold_rows(settle_s)]
     next_step = dict(zip(order[:-1], order[1:]))
     y_all = session.raw["gyro"]
     rails = _rails(y_all)
     out = []
-    for m in session.moves("gyro"):
+    for m in session.moves("gyro", settle_s):
         end = next_step.get(m.step)
         if m.step in excluded or end in excluded:
             warnings.append(f"gyro: move {m.step} -> {end} not used (touches an excluded hold)")

@@ -112,11 +112,15 @@ class SessionData:
                          np.array(temps) if self.temp_c is not None else None,
                          np.array(vs) if self.vsupply_v is not None else None)
 
-    def moves(self, sensor: str) -> list[MoveStream]:
-        """Streams between consecutive holds (in time order), each including its bounding samples."""
+    def moves(self, sensor: str, settle_s: float = 0.0) -> list[MoveStream]:
+        """Streams between consecutive holds (in time order), each including its bounding samples.
+
+        With `settle_s`, a stream runs on to the first settled row of the next hold and both reference
+        orientations come from settled rows, so ringing at the start of a hold is integrated, not ignored.
+        """
         y = self.raw[sensor]
         have = ~np.isnan(y).any(axis=1)
-        holds = self.hold_rows()
+        holds = self.hold_rows(settle_s)
         out = []
         for (j, a), (k, b) in zip(holds[:-1], holds[1:]):
             lo, hi = a[-1], b[0]

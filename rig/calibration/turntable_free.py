@@ -1,0 +1,177 @@
+"""Calibration without known rotations (hand-held multi-position data such as imu_tk's Xsens set).
+
+Follows imu_tk (Tedaldi et al., ICRA 2014), with our model `u = H (y - B)`:
+* Accelerometer: static intervals detected from the data for k = 2..10 (imu_tk's sweep); for
+  each k the first 100 samples of every interval longer than that are fitted to `|H (y - B)| = g` with H upper
+  triangular (imu_tk's convention: the accelerometer frame *is* the body frame, no rotation is
+  observable without known orientations); start from the algebraic ellipsoid (`fit_ellipsoid`),
+  whose shape matrix A = U^T U gives the upper-triangular start H = g U directly. The k with the
+  lowest final cost (1/2 sum r^2, as imu_tk) wins.
+* Gyroscope: B = mean of the initial static interval (eq. 41 on one hold); H (full 3x3, mapping
+  into the accelerometer frame) makes the calibrated gyro, integrated from the end of one static
+  interval to the start of the next, carry the gravity direction (calibrated accelerometer mean
+  over the whole interval) of one onto the next: residual R^T g0 - g1 on unit vectors, as imu_tk's
+  MultiPosGyroResidual. No rotation about gravity is seen by one move, but the different poses
+  make all of H observable.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from rig.calibration.ellipsoid import fit_ellipsoid
+from rig.calibration.gyro import MoveSet, decimated, integrated_quats, scalar_search
+from rig.calibration.result import TriadCalibration
+from rig.calibration.static_detect import detect_static_intervals, first_samples, initial_interval, long_intervals
+from rig.errors import CalibrationError
+from rig.session_data import MoveStream
+
+MIN_INTERVALS = 12          # imu_tk's minimum number of static intervals
+SAMPLES_PER_INTERVAL = 100  # imu_tk's interval_n_samples
+UPPER = np.triu_indices(3)
+POOR_FIT_UNIT = 0.05        # rms gravity-direction misfit (unit vector components); imu_tk's Xsens fit: 0.012
+
+
+def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, *, gravity: float = 9.80665,
+                             init_static_s: float = 50.0, k_values: range | tuple = range(2, 11),
+                             window_s: float = 1.0) -> dict[str, TriadCalibration]:
+    """{'accel': ..., 'gyro': ...} from raw counts of a hand-held multi-position record.
+
+    The record must start with `init_static_s` seconds at rest (threshold and gyro bias) and hold
+    at least 12 poses for >= 100 samples each. The accelerometer's `extra` holds the chosen k, the
+    static intervals kept ("intervals"), the samples fitted ("fit_samples": the first 100 of each, as
+    imu_tk) and the whole k sweep; `residual_rms` is | |a| - g | over the fitted samples and
+    `extra["residual_rms_full_intervals"]` over every sample of the intervals.
+    """
+    t = np.asarray(t, dtype=float)
+    accel_raw, gyro_raw = np.asarray(accel_raw, dtype=float), np.asarray(gyro_raw, dtype=float)
+    for name, a in (("accel", accel_raw), ("gyro", gyro_raw)):
+        if a.shape != (len(t), 3):
+            raise ValueError(f"turntable-free: {name} must have shape ({len(t)}, 3), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            row = int(np.flatnonzero(~np.isfinite(a).all(axis=1))[0])
+            raise ValueError(f"turntable-free: {name} contains NaN/inf at row {row}")
+    accel = _accel_sweep(t, accel_raw, gravity, init_static_s, k_values, window_s)
+    intervals = [tuple(c) for c in accel.extra["intervals"]]
+    g_body = accel.apply(np.array([accel_raw[a:b + 1].mean(axis=0) for a, b in intervals]))
+    gyro = calibrate_gyro_gravity(t, gyro_raw, g_body, intervals, init_static_s)
+    return {"accel": accel, "gyro": gyro}
+
+
+def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_static_s: float, k_values,
+                 window_s: float) -> TriadCalibration:
+    """imu_tk's threshold sweep: detect, fit, keep the k with the least cost."""
+    best, sweep = None, []
+    for k in k_values:
+        intervals = detect_static_intervals(t, accel_raw, window_s=window_s, init_static_s=init_static_s, k=k)
+        chunks = first_samples(intervals, SAMPLES_PER_INTERVAL)
+        if len(chunks) < MIN_INTERVALS:
+            sweep.append({"k": k, "intervals": len(chunks), "cost": None})
+            continue
+        B, H, cost = fit_accel_upper([accel_raw[a:b + 1] for a, b in chunks], gravity)
+        sweep.append({"k": k, "intervals": len(chunks), "cost": cost})
+        if best is None or cost < best["cost"]:
+            best = {"k": k, "chunks": chunks, "intervals": long_intervals(intervals, SAMPLES_PER_INTERVAL),
+                    "B": B, "H": H, "cost": cost}
+    if best is None:
+        raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals for every k in "
+                               f"{list(k_values)}; record more poses held for >= {SAMPLES_PER_INTERVAL} samples")
+
+    def rms(ranges) -> float:
+        idx = np.concatenate([np.arange(a, b + 1) for a, b in ranges])
+        norm = np.linalg.norm((accel_raw[idx] - best["B"]) @ best["H"].T, axis=1)
+        return float(np.sqrt(np.mean((gravity - norm) ** 2)))
+
+    return TriadCalibration(B=best["B"], H=best["H"],
+                            method="turntable-free-accel (imu_tk convention: upper-triangular H)",
+                            residual_rms=rms(best["chunks"]), iterations=len(sweep),
+                            extra={"k": best["k"], "cost": best["cost"],
+                                   "fit_samples": [list(c) for c in best["chunks"]],
+                                   "intervals": [list(c) for c in best["intervals"]],
+                                   "residual_rms_full_intervals": rms(best["intervals"]), "k_sweep": sweep})
+
+
+def fit_accel_upper(chunks: list[np.ndarray], gravity: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """B, upper-triangular H and 1/2 sum (g - |H (y - B)|)^2 over the samples of static chunks [(m, 3)].
+
+    The ellipsoid through the chunk means starts the fit; all samples are fitted (as imu_tk does).
+    """
+    samples = np.vstack(chunks)
+    try:
+        ell = fit_ellipsoid(np.array([c.mean(axis=0) for c in chunks]))
+        H0 = gravity * np.linalg.cholesky(ell.shape).T
+        B0 = ell.center
+    except (CalibrationError, np.linalg.LinAlgError):
+        B0 = samples.mean(axis=0)
+        H0 = gravity / np.median(np.linalg.norm(samples - B0, axis=1)) * np.eye(3)
+    scale = float(np.abs(np.diag(H0)).mean())
+
+    def residual(p: np.ndarray) -> np.ndarray:
+        H = np.zeros((3, 3))
+        H[UPPER] = p[3:] * scale
+        return gravity - np.linalg.norm((samples - p[:3]) @ H.T, axis=1)
+
+    res = least_squares(residual, np.concatenate([B0, H0[UPPER] / scale]), method="lm", xtol=1e-12, ftol=1e-12)
+    H = np.zeros((3, 3))
+    H[UPPER] = res.x[3:] * scale
+    return res.x[:3], H, float(0.5 * res.fun @ res.fun)
+
+
+def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarray, intervals: list[tuple[int, int]],
+                           init_static_s: float) -> TriadCalibration:
+    """Gyro B from the initial rest, H from gravity directions carried across each move."""
+    B = gyro_raw[:initial_interval(t, init_static_s)].mean(axis=0)
+    g = g_body / np.linalg.norm(g_body, axis=1, keepdims=True)
+    moves = [MoveStream(i, t[a_end:b_start + 1], gyro_raw[a_end:b_start + 1], np.eye(3), np.eye(3))
+             for i, ((_, a_end), (b_start, _)) in enumerate(zip(intervals[:-1], intervals[1:]))]
+    ms = MoveSet.build(moves, B)
+    g0, g1 = g[:-1], g[1:]
+
+    def residuals(H: np.ndarray, moveset: MoveSet) -> np.ndarray:
+        q = integrated_quats(H, moveset)          # R = R0^T R1 of each move, (..., n, 4)
+        return _rotate_inverse(q, g0) - g1        # R^T g0 - g1
+
+    s = _gyro_scale(moves, B, g0, g1)
+    fun = lambda x: residuals(x.reshape(3, 3) * s, ms).ravel()
+
+    def jac(x: np.ndarray, step: float = 1e-7) -> np.ndarray:
+        X = np.vstack([x, x + step * np.eye(9)])
+        r = residuals(X.reshape(-1, 3, 3) * s, ms).reshape(10, -1)
+        return ((r[1:] - r[0]) / step).T
+
+    res = least_squares(fun, np.eye(3).ravel(), jac=jac, method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    H = res.x.reshape(3, 3) * s
+    r = res.fun
+    cov = np.linalg.pinv(res.jac.T @ res.jac) * float(r @ r) / max(r.size - 9, 1) * s * s
+    warnings = [] if np.linalg.det(H) > 0 else [f"det(H) = {np.linalg.det(H):.3g} <= 0"]
+    rms = float(np.sqrt(np.mean(r * r)))
+    if rms > POOR_FIT_UNIT:
+        warnings.append(f"the gyro fit does not carry gravity between the rests: rms {rms:.3g} (unit vectors); "
+                        "check that the rests are still and the gyro is sampled with the accelerometer")
+    return TriadCalibration(B=B, H=H, method="turntable-free-gyro (gravity direction across moves, imu_tk)",
+                            residual_rms=rms, iterations=int(res.nfev),
+                            converged=bool(res.status > 0), H_std=np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(3, 3),
+                            H_cov=cov, warnings=warnings,
+                            extra={"moves": len(moves), "cost": float(0.5 * r @ r),
+                                   "residual_unit": "unit gravity vector components"})
+
+
+def _rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R(q)^T v for quaternions q (..., n, 4) and vectors v (n, 3)."""
+    w, u = q[..., :1], -q[..., 1:]               # conj(q) rotates by R^T
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def _gyro_scale(moves: list[MoveStream], B: np.ndarray, g0: np.ndarray, g1: np.ndarray, stride: int = 4) -> float:
+    """Scalar s with H = s I carrying gravity best, searched on every `stride`-th sample (a start point)."""
+    ms = MoveSet.build(decimated(moves, stride), B)
+    peak = float((np.linalg.norm(ms.S, axis=-1) / np.where(ms.h > 0, ms.h, np.inf)).max())
+
+    def cost(svals: np.ndarray) -> np.ndarray:
+        q = integrated_quats(np.asarray(svals)[:, None, None] * np.eye(3), ms)
+        r = _rotate_inverse(q, g0) - g1
+        return np.sum(r * r, axis=(-1, -2))
+
+    return scalar_search(cost, np.radians(1.0) / peak, np.radians(3000.0) / peak)
