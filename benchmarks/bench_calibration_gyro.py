@@ -26,7 +26,7 @@ from rig.calibration.gyro_baselines import calibrate_gyro_trust_region  # noqa: 
 from rig.calibration.integrate import integrate_rotation  # noqa: E402
 from rig.calibration.turntable_free import calibrate_turntable_free  # noqa: E402
 
-XSENS = Path("/work/shared/data/imu_tk-xsens")
+XSENS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "imu_tk-xsens"
 IMU_TK = {"accel_bias": [33124.1825646, 33275.1794342, 32364.4156494],
           "accel_inverse_scale": [414.459, 412.010, 414.649],
           "gyro_bias": [32777.139944, 32459.8028788, 32511.847461],

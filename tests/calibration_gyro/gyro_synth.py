@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from rig.rotations import matrix_from_rotvec
+from tests.paths import SHARED
 
-XSENS = Path("/work/shared/data/imu_tk-xsens")
+XSENS = SHARED / "data" / "imu_tk-xsens"
 
 
 @pytest.fixture

@@ -9,8 +9,9 @@ import pytest
 
 from rig.errors import SessionFormatError
 from rig.io.imu_tk import read_imu_tk
+from tests.paths import SHARED
 
-DATA = Path("/work/shared/data/imu_tk-xsens")
+DATA = SHARED / "data" / "imu_tk-xsens"
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,9 @@ from rig.turntable.errors import ProfileError
 from rig.turntable.profile import decode_bits, default_profile_path, load_profile
 from rig.turntable.status import int_to_words, words_to_int
 from rig.turntable.url import parse_url
+from tests.paths import SHARED
 
-SPEC = Path("/work/shared/spec/turntable-modbus.md")
+SPEC = SHARED / "spec" / "turntable-modbus.md"
 
 
 def spec_rows() -> dict[str, int]:
