@@ -7,7 +7,8 @@ Rows of the table, all on the same trajectory record:
 * UKF with the sensor-frame-only ellipsoid for accel/mag (gyro: ours, so the row isolates what a
   symmetric H loses: the mounting rotation),
 * UKF with nominal datasheet scales (the drivers' `settings()["scale"]`, zero bias),
-* Madgwick, Mahony and EKF from `ahrs` on our calibrated data, as peers of the filter.
+* Madgwick, Mahony and EKF from `ahrs` on our calibrated data, as peers of the filter (the EKF twice:
+  given our noise model, and with the package's default noise).
 """
 
 from __future__ import annotations
@@ -94,14 +95,14 @@ def validate_session(session: SessionData, calibrations: dict[str, dict[str, Tri
     first = next(iter(calibrations))
     for label, sensors in calibrations.items():
         try:
-            row, est = ukf_row(session, sensors, label, rows, settings)
+            row, est, aligned = ukf_row(session, sensors, label, rows, settings)
         except CalibrationError as e:
             result.notes.append(f"{label}: not evaluated ({e})")
             continue
         result.rows.append(row)
         result.estimates[label] = est
         if label == first and peers:
-            result.rows += peer_rows(session, sensors, label, rows, est, peers)
+            result.rows += peer_rows(session, aligned, label, rows, est, peers)
     return result
 
 
@@ -143,6 +144,8 @@ def write_outputs(out_dir: Path, result: ValidationResult, session: SessionData,
           f"- noise: gyro {f['noise']['gyro_rad_s']:.3g} rad/s, accel {f['noise']['accel_mps2']:.3g} m/s^2, "
           f"mag {f['noise']['mag_uT']:.3g} uT (from the first hold, floored)",
           f"- reference dip {f['dip_deg']:.2f} deg, |m| {f['field_uT']:.2f} uT",
+          "- latency behind the stamps, estimated against the reference and removed: "
+          + ", ".join(f"{k} {1e3 * v:.2f} ms" for k, v in f["latency_s"].items()),
           f"- accel updates {f['accel_updates']} (rejected {f['accel_rejected']}); magnetometer samples "
           f"{f['mag_samples']}, used {f['mag_updates']}, rejected for |m| {f['mag_rejected_norm']}, "
           f"for dip {f['mag_rejected_dip']}"]

@@ -1,0 +1,132 @@
+"""Attitude of a recorded session against its reference: calibrate the raw counts, filter, compare.
+
+Works on any session with a still interval first (phase 'hold') and motion after it: the first hold
+initialises the filters (attitude, noise, reference dip) and fixes the constant rotation between the
+filter's navigation frame and the reference's world frame; the statistics cover every row after it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rig.attitude.compare import Comparison, compare
+from rig.attitude.noise import SensorNoise
+from rig.attitude.peers import run_peer
+from rig.attitude.timing import carried_forward, delayed, estimate_gyro_delay, estimate_vector_delay
+from rig.attitude.ukf import AttitudeEstimate, UKFSettings, estimate_attitude
+from rig.calibration.result import TriadCalibration
+from rig.errors import CalibrationError
+from rig.session_data import SessionData
+
+# The first second of the first hold is left to the filters to converge before the frames are aligned.
+ALIGN_SKIP_S = 1.0
+REQUIRED = ("gyro", "accel")
+
+
+@dataclass
+class SessionRows:
+    still: np.ndarray   # rows of the first hold
+    align: np.ndarray   # its rows after ALIGN_SKIP_S
+    evaluate: np.ndarray  # every row after the first hold
+
+
+@dataclass
+class Row:
+    """One line of Table III: an estimator (filter + calibration) against the reference."""
+
+    label: str
+    filter: str
+    calibration: str
+    comparison: Comparison
+    filter_summary: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"label": self.label, "filter": self.filter, "calibration": self.calibration,
+                **self.comparison.to_dict(), "filter_summary": self.filter_summary}
+
+
+def session_rows(session: SessionData, align_skip_s: float = ALIGN_SKIP_S) -> SessionRows:
+    holds = session.hold_rows()
+    if not holds:
+        raise CalibrationError(f"{session.source}: no 'hold' rows; attitude validation needs a still interval first "
+                               "to initialise the filter and align the frames")
+    first = holds[0][1]
+    if first[0] != 0 and session.is_move[: first[0]].any():
+        raise CalibrationError(f"{session.source}: the session starts moving (row 0) before its first hold "
+                               f"(row {int(first[0])}); attitude validation needs a still interval first")
+    still = np.arange(first[0], first[-1] + 1)
+    align = still[session.t[still] >= session.t[still[0]] + align_skip_s]
+    if len(align) < 10:
+        lasts = session.t[still[-1]] - session.t[still[0]]
+        raise CalibrationError(f"{session.source}: the first hold lasts {lasts:.2f} s;"
+                               f" at least {align_skip_s + 0.1:.1f} s is needed to align the frames")
+    evaluate = np.arange(still[-1] + 1, len(session.t))
+    if len(evaluate) < 10 or not session.is_move[evaluate].any():
+        raise CalibrationError(f"{session.source}: no motion after the first hold; nothing to validate")
+    return SessionRows(still, align, evaluate)
+
+
+def calibrated_signals(session: SessionData, sensors: dict[str, TriadCalibration]) -> dict[str, np.ndarray]:
+    """`u = H (y - B)` per sensor, NaN rows kept; gyro and accel are required."""
+    missing = [s for s in REQUIRED if s not in session.raw or s not in sensors]
+    if missing:
+        have = f"session has {sorted(session.raw)}, calibration has {sorted(sensors)}"
+        raise CalibrationError(f"{session.source}: attitude needs {', '.join(missing)} in both session and "
+                               f"calibration ({have})")
+    return {name: sensors[name].apply(session.raw[name]) for name in session.raw if name in sensors}
+
+
+def aligned_signals(session: SessionData, sensors: dict[str, TriadCalibration],
+                    rows: SessionRows) -> tuple[dict[str, np.ndarray], dict[str, float], SensorNoise]:
+    """Calibrated signals with each sensor's latency against the reference removed (see `timing.py`),
+    the latencies (s), and the sensor noise on the first hold (taken before the re-reading, which smooths it)."""
+    u = calibrated_signals(session, sensors)
+    st = rows.still
+    noise = SensorNoise.from_static(u["gyro"][st], u["accel"][st], u["mag"][st] if "mag" in u else None)
+    delays = {"gyro": estimate_gyro_delay(session.t, u["gyro"], session.q_ref, rows.evaluate)}
+    u["gyro"] = delayed(session.t, u["gyro"], delays["gyro"])
+    for name in ("accel", "mag"):
+        if name in u:
+            delays[name] = estimate_vector_delay(session.t, u[name], session.q_ref, st, rows.evaluate)
+            u[name] = carried_forward(session.t, u[name], u["gyro"], delays[name])
+    return u, delays, noise
+
+
+def run_ukf(session: SessionData, u: dict[str, np.ndarray], rows: SessionRows, noise: SensorNoise | None = None,
+            settings: UKFSettings | None = None) -> AttitudeEstimate:
+    return estimate_attitude(session.t, u["gyro"], u["accel"], u.get("mag"), gravity=session.gravity,
+                             field_uT=session.field_uT, noise=noise, still_rows=rows.still, settings=settings)
+
+
+def ukf_row(session: SessionData, sensors: dict[str, TriadCalibration], calibration: str, rows: SessionRows,
+            settings: UKFSettings | None = None) -> tuple[Row, AttitudeEstimate, tuple]:
+    """The UKF's Table III row; also returns the estimate and the aligned inputs (for the peers)."""
+    aligned = aligned_signals(session, sensors, rows)
+    u, delays, noise = aligned
+    est = run_ukf(session, u, rows, noise, settings)
+    comp = compare(f"UKF, {calibration}", est.q, session.q_ref, rows.align, rows.evaluate)
+    return Row(comp.name, "ukf", calibration, comp, {"latency_s": delays, **est.summary()}), est, aligned
+
+
+def peer_rows(session: SessionData, aligned: tuple, calibration: str, rows: SessionRows, est: AttitudeEstimate,
+              peers: tuple[str, ...]) -> list[Row]:
+    """The ahrs filters on the same calibrated data, noise and initial attitude as the UKF run `est`.
+
+    They get the same latency-corrected signals. They integrate the rate of sample k over the interval
+    (t_k-1, t_k] (rectangle rule), so their gyro is read at the interval's midpoint, half a period
+    earlier, which is the most favourable reading for them.
+    """
+    u, delays, _ = aligned
+    if "mag" not in u:
+        return []
+    half_period = 0.5 * float(np.median(np.diff(session.t)))
+    gyro = delayed(session.t, u["gyro"], -half_period)
+    out = []
+    for name in peers:
+        q = run_peer(name, session.t, gyro, u["accel"], u["mag"], noise=est.noise, gravity=session.gravity,
+                     field_uT=est.field_uT, dip_deg=est.dip_deg, q0_enu=est.q[0])
+        comp = compare(f"{name} (ahrs), {calibration}", q, session.q_ref, rows.align, rows.evaluate)
+        out.append(Row(comp.name, name, calibration, comp, {"latency_s": delays, "gyro_read_shift_s": -half_period}))
+    return out

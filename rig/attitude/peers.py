@@ -1,0 +1,49 @@
+"""Peer filters from the `ahrs` package (Madgwick, Mahony, EKF) on the same calibrated data.
+
+Conventions checked against ahrs 0.4.0 (its source, and the frame-alignment test in tests/attitude):
+* all three return scalar-first quaternions that rotate fixture vectors into their navigation frame;
+  each has its own navigation frame (Madgwick starts from an NED e-compass, Mahony and our EKF call
+  ENU), which the validation's constant alignment removes like ours.
+* ahrs' EKF in its ENU frame takes the gravity reference (0, 0, -1): it expects the accelerometer to
+  read gravity, not specific force, so it is given -a.
+* they need every sensor on every row: rows without a magnetometer sample get the linear
+  interpolation in time (the magnetometer runs at half the accelerometer's rate on the sim rig).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rig.attitude.noise import SensorNoise
+
+PEERS = ("madgwick", "mahony", "ekf", "ekf-defaults")
+
+
+def fill_rows(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    ok = np.isfinite(x).all(axis=1)
+    if ok.all():
+        return x
+    if ok.sum() < 2:
+        raise ValueError("fewer than two finite samples: cannot fill the missing rows")
+    return np.column_stack([np.interp(t, t[ok], x[ok, i]) for i in range(3)])
+
+
+def run_peer(name: str, t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray, *,
+             noise: SensorNoise, gravity: float, field_uT: float, dip_deg: float, q0_enu: np.ndarray) -> np.ndarray:
+    """Quaternions (n, 4), fixture -> the peer's navigation frame."""
+    from ahrs.filters import EKF, Madgwick, Mahony
+
+    gyro, accel, mag = (fill_rows(t, np.asarray(x, dtype=float)) for x in (gyro, accel, mag))
+    freq = 1.0 / float(np.median(np.diff(t)))
+    if name == "madgwick":
+        return Madgwick(gyr=gyro, acc=accel, mag=mag, frequency=freq).Q
+    if name == "mahony":
+        return Mahony(gyr=gyro, acc=accel, mag=mag, frequency=freq, q0=np.asarray(q0_enu, dtype=float)).Q
+    if name in ("ekf", "ekf-defaults"):
+        # 'ekf': variances of the unit vectors it compares from the same noise the UKF is given;
+        # 'ekf-defaults': the package's own noise settings, as a user gets it out of the box
+        kw = {} if name == "ekf-defaults" else {"noises": [noise.gyro_rad_s ** 2, (noise.accel_mps2 / gravity) ** 2,
+                                                           (noise.mag_uT / field_uT) ** 2]}
+        return EKF(gyr=gyro, acc=-accel, mag=mag, frequency=freq, frame="ENU", magnetic_ref=float(dip_deg),
+                   q0=np.asarray(q0_enu, dtype=float), **kw).Q
+    raise ValueError(f"unknown peer filter {name!r}; choose from {PEERS}")

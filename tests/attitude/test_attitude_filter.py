@@ -1,0 +1,128 @@
+"""The quaternion UKF on synthetic motion with a known attitude, including a pass through pitch 90 deg."""
+
+import math
+
+import numpy as np
+import pytest
+from attitude_synth import G, make_motion, rms_error_deg
+
+from rig.attitude.compare import rpy_deg
+from rig.attitude.measurements import Gates
+from rig.attitude.reference import estimate_attitude_filterpy
+from rig.attitude.ukf import UKFSettings, estimate_attitude
+from rig.rotations import matrix_from_quat
+
+MODES = ("vector", "heading")
+
+
+@pytest.fixture(scope="module")
+def motion():
+    return make_motion(seed=7)
+
+
+def _run(m, mode="vector", **kw):
+    return estimate_attitude(m.t, m.gyro, m.accel, kw.pop("mag", m.mag), field_uT=50.0,
+                             settings=UKFSettings(mag_measurement=mode, **kw))
+
+
+def test_the_synthetic_motion_passes_pitch_90(motion):
+    # the scenario the Euler measurement of the paper cannot handle; guards the tests below
+    assert np.abs(rpy_deg(motion.R)[:, 1]).max() > 89.0
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_fast_kernel_equals_the_filterpy_ukf(motion, mode):
+    n = 450   # through the first 120 deg pitch pulse
+    args = (motion.t[:n], motion.gyro[:n], motion.accel[:n], motion.mag[:n])
+    s = UKFSettings(mag_measurement=mode)
+    fast = estimate_attitude(*args, field_uT=50.0, settings=s)
+    ref = estimate_attitude_filterpy(*args, field_uT=50.0, settings=s)
+    assert np.abs(fast.q - ref.q).max() < 1e-10
+    assert np.abs(fast.std_deg - ref.std_deg).max() < 1e-8
+    assert fast.counts == ref.counts
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_tracks_the_attitude_through_pitch_90(motion, mode):
+    est = _run(motion, mode)
+    rms = rms_error_deg(motion.R, est.q)
+    assert (rms < 0.08).all(), rms
+    err = rpy_deg(np.einsum("nji,njk->nik", motion.R, matrix_from_quat(est.q)))
+    near_90 = np.abs(rpy_deg(motion.R)[:, 1]) > 80.0
+    assert near_90.sum() >= 15
+    assert np.abs(err[near_90]).max() < 0.2
+
+
+def test_filter_std_covers_the_actual_error(motion):
+    est = _run(motion)
+    err = rpy_deg(np.einsum("nji,njk->nik", motion.R, matrix_from_quat(est.q)))
+    z = np.abs(err) / est.std_deg
+    assert np.mean(z < 3.0) > 0.95
+
+
+def test_without_magnetometer_tilt_is_kept(motion):
+    est = _run(motion, mag=None)
+    up_true = motion.R[:, 2, :]                 # R^T e_z per row
+    up_est = matrix_from_quat(est.q)[:, 2, :]
+    tilt_err = np.degrees(np.arccos(np.clip(np.sum(up_true * up_est, axis=1), -1, 1)))
+    assert tilt_err.max() < 0.2
+    assert est.counts["mag_updates"] == 0
+
+
+def _disturbed(motion, window, field_fn):
+    """Magnetometer samples in `window` (s) replaced by field_fn(true body field)."""
+    mag = motion.mag.copy()
+    rows = (motion.t >= window[0]) & (motion.t < window[1]) & np.isfinite(mag[:, 0])
+    true_body = np.einsum("nji,j->ni", motion.R[rows], motion.field_nav)
+    mag[rows] = field_fn(true_body, motion.R[rows])
+    return mag, int(rows.sum())
+
+
+def test_a_stronger_field_indoors_is_rejected_and_counted(motion):
+    # a steel structure nearby: the field grows 30 % and turns 25 deg about the vertical
+    turn = np.array([[math.cos(0.44), -math.sin(0.44), 0], [math.sin(0.44), math.cos(0.44), 0], [0, 0, 1]])
+    field = 1.3 * turn @ motion.field_nav
+
+    mag, n_bad = _disturbed(motion, (5.0, 9.0), lambda b, R: np.einsum("nji,j->ni", R, field))
+    gated = _run(motion, mag=mag)
+    open_gates = _run(motion, mag=mag, gates=Gates(mag_norm_fraction=10.0, dip_deg=180.0))
+    assert gated.counts["mag_rejected_norm"] == n_bad
+    assert gated.counts["mag_updates"] == gated.counts["mag_samples"] - n_bad
+    assert open_gates.counts["mag_rejected_norm"] == 0
+    assert rms_error_deg(motion.R, gated.q)[2] < 0.1
+    assert rms_error_deg(motion.R, open_gates.q)[2] > 5 * rms_error_deg(motion.R, gated.q)[2]
+
+
+def test_a_field_that_keeps_its_strength_but_changes_dip_is_rejected(motion):
+    # the field tilted 8 deg towards the vertical: |m| unchanged, only the dip gives it away
+    a = math.radians(8.0)
+    tilt = np.array([[1, 0, 0], [0, math.cos(a), math.sin(a)], [0, -math.sin(a), math.cos(a)]])
+    field = tilt @ motion.field_nav
+    mag, n_bad = _disturbed(motion, (3.0, 7.0), lambda b, R: np.einsum("nji,j->ni", R, field))
+    est = _run(motion, mag=mag)
+    assert est.counts["mag_rejected_norm"] == 0
+    assert est.counts["mag_rejected_dip"] == n_bad
+    assert (rms_error_deg(motion.R, est.q) < 0.08).all()
+
+
+def test_specific_force_beyond_gravity_is_not_used_as_gravity(motion):
+    accel = motion.accel.copy()
+    rows = (motion.t > 4.0) & (motion.t < 4.5)
+    accel[rows] += np.array([0.4 * G, 0.0, 0.0])   # a linear acceleration of 0.4 g along the body x
+    est = _run(motion, mag=motion.mag)
+    bumped = estimate_attitude(motion.t, motion.gyro, accel, motion.mag, field_uT=50.0)
+    assert bumped.counts["accel_rejected"] == int(rows.sum())
+    assert est.counts["accel_rejected"] == 0
+    assert (rms_error_deg(motion.R, bumped.q) < 0.08).all()
+
+
+def test_settings_reject_an_unknown_measurement_mode():
+    with pytest.raises(ValueError, match="mag_measurement"):
+        UKFSettings(mag_measurement="euler")
+
+
+def test_a_still_interval_without_accelerometer_samples_is_refused(motion):
+    accel = motion.accel.copy()
+    accel[:60] = np.nan
+    with pytest.raises(ValueError, match="accelerometer"):
+        estimate_attitude(motion.t, motion.gyro, accel, motion.mag, still_rows=np.arange(50))
