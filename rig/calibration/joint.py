@@ -153,8 +153,10 @@ def _refine_ml(y, R, norm, sigma, start: TriadCalibration, v0, weighted: bool) -
     B, H, v, _ = unpack(sol.x)
     dof = 3 * n - N_PARAMS
     chi2_red = float(2 * sol.cost / dof) if dof > 0 else float("nan")
+    # The alternation is only the start: a slow start that the maximum-likelihood step finishes is no fault.
     out = TriadCalibration(B=B, H=H, method="joint-ml", iterations=start.iterations + int(sol.nfev),
-                           converged=bool(sol.success) and start.converged, warnings=list(start.warnings))
+                           converged=bool(sol.success), warnings=[] if sol.success else list(start.warnings))
+    out.extra["start_converged"] = bool(start.converged)
     if not sol.success:
         out.warnings.append(f"joint-ml: least_squares did not converge ({sol.message})")
     J = sol.jac
