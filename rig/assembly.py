@@ -36,10 +36,16 @@ class Rig:
         self.close()
 
 
-def build_real(config: RigConfig) -> Rig:
-    """The rig on this machine's buses (I2C bus 1, SPI bus 0) and the configured turntable URL."""
-    from drivers import open_i2c, open_spi
+def build_real(config: RigConfig, *, open_i2c=None, open_spi=None) -> Rig:
+    """The rig on this machine's buses (I2C bus 1, SPI bus 0) and the configured turntable URL.
 
+    `open_i2c(bus_number)` and `open_spi(bus, device, mode, max_speed_hz)` default to the drivers' helpers
+    (smbus2, spidev); a USB bridge adapter (or a test) passes its own.
+    """
+    import drivers
+
+    open_i2c = open_i2c or drivers.open_i2c
+    open_spi = open_spi or drivers.open_spi
     clock = RealClock()
     stack = contextlib.ExitStack()
     bus = open_i2c(int(config.chips.get("i2c_bus", 1)))
