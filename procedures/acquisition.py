@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from drivers import DriverError
 from procedures.protocols import Board
 from rig.clock import Clock, sleep_until
 
@@ -34,6 +35,8 @@ class Sampler:
     session_t0: float = 0.0
     _k: int = 0
     late_reads: int = 0
+    skipped_ticks: int = 0
+    read_errors: list = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.dt = 1.0 / self.rate_hz
@@ -50,23 +53,52 @@ class Sampler:
         self._supplies: list[float] = []
 
     def tick(self) -> None:
+        """Wait for the next grid time and read every sensor due; stamped with the clock time of the reads.
+
+        A loop that fell more than a tick behind (a slow bus, a busy host) skips the missed ticks rather
+        than bursting through them with made-up times; they are counted in `skipped_ticks`.
+        """
         t = self.t0 + self._k * self.dt
+        behind = int((self.clock.now() - t) / self.dt)
+        if behind >= 1:
+            self._k += behind
+            self.skipped_ticks += behind
+            t = self.t0 + self._k * self.dt
         sleep_until(self.clock, t)
+        stamp = self.stamp(self.clock.now())
         nan3 = (np.nan, np.nan, np.nan)
         for name in self._names:
             if name == "mag" and self._k % self.mag_every:
                 self._rows[name].append(nan3)
                 continue
             self._wait_ready(name)
-            self._rows[name].append(self.board.triads[name].read_raw())
+            self._rows[name].append(self._read(name, stamp))
         if self._k % self.aux_every == 0:
-            temp, supply = self.board.read_temperature(), self.board.read_supply()
+            temp, supply = self._aux(self.board.read_temperature, stamp), self._aux(self.board.read_supply, stamp)
             self._temp = float("nan") if temp is None else temp
             self._supply = float("nan") if supply is None else supply
         self._temps.append(self._temp)
         self._supplies.append(self._supply)
-        self._t.append(self.stamp(t))
+        self._t.append(stamp)
         self._k += 1
+
+    def _read(self, name: str, stamp: float):
+        """One read, retried once: a single bus glitch or saturated sample becomes an empty cell and a logged
+        error, not the end of a session."""
+        for attempt in (1, 2):
+            try:
+                return self.board.triads[name].read_raw()
+            except DriverError as e:
+                if attempt == 2:
+                    self.read_errors.append((stamp, f"{name}: {e}"))
+        return (np.nan, np.nan, np.nan)
+
+    def _aux(self, read, stamp: float):
+        try:
+            return read()
+        except DriverError as e:
+            self.read_errors.append((stamp, f"temperature/supply: {e}"))
+            return None
 
     def _wait_ready(self, name: str) -> None:
         ready = self._ready[name]
@@ -105,6 +137,13 @@ class Sampler:
     def stamp(self, clock_time: float) -> float:
         """Session time (s from session start, continuing across a resume) of a clock reading."""
         return clock_time - self.t0 + self.session_t0
+
+
+def log_read_errors(store, sampler: "Sampler") -> None:
+    """Move the sampler's read errors into the session log (they left empty cells in the data)."""
+    for t, message in sampler.read_errors:
+        store.log_event("read-error", message, t)
+    sampler.read_errors.clear()
 
 
 def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 100.0, k_sigma: float = 8.0,

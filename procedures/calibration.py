@@ -12,9 +12,10 @@ from typing import Callable
 
 import numpy as np
 
-from procedures.acquisition import Recording, Sampler, hold_has_motion
+from procedures.acquisition import Recording, Sampler, hold_has_motion, log_read_errors
 from procedures.planning import Orientation
 from procedures.protocols import Board, Store, Table
+from procedures.reference import interpolate_angles
 from rig.clock import Clock
 from rig.rotations import TableGeometry, quat_from_matrix
 
@@ -38,7 +39,7 @@ HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdo
 
 
 class HoldFailed(RuntimeError):
-    """A hold kept moving after every allowed attempt."""
+    """A hold kept moving in every allowed attempt: the table or its surroundings are not still."""
 
 
 def position_table(table: Table, clock: Clock, target: Orientation, m: MotionSettings) -> None:
@@ -71,25 +72,29 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
         _record_hold(table, sampler, store, geometry, schedule[j], j, m)
     if progress:
         progress(n, n, "done")
-    return {"ticks": sampler._k, "late_reads": sampler.late_reads}
+    return {"ticks": sampler._k, "late_reads": sampler.late_reads, "skipped_ticks": sampler.skipped_ticks}
 
 
 def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
                  step: int, m: MotionSettings) -> None:
-    t_pos, pos = [sampler.stamp(sampler.clock.now())], [table.positions()]
+    t_pos, pos, vel = [sampler.stamp(sampler.clock.now())], [table.positions()], [(0.0, 0.0)]
 
-    def log_positions(statuses: list) -> None:
+    def log_polls(statuses: list) -> None:
+        ordered = sorted(statuses, key=lambda st: st.axis)
         t_pos.append(sampler.stamp(sampler.clock.now()))
-        pos.append(tuple(st.position_deg for st in sorted(statuses, key=lambda st: st.axis)))
+        pos.append(tuple(st.position_deg for st in ordered))
+        vel.append(tuple(st.velocity_dps for st in ordered))
 
     table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,
-                  tolerance_deg=m.tolerance_deg, settle_s=m.settle_s, on_poll=log_positions, wait=sampler.run_for)
+                  tolerance_deg=m.tolerance_deg, settle_s=m.settle_s, on_poll=log_polls, wait=sampler.run_for)
     rec = sampler.take()
-    t_pos.append(sampler.stamp(sampler.now))
+    t_pos.append(sampler.stamp(sampler.clock.now()))
     pos.append(table.positions())
-    table_deg = np.column_stack([np.interp(rec.t, t_pos, np.asarray(pos)[:, i]) for i in range(2)])
+    vel.append((0.0, 0.0))
+    table_deg = interpolate_angles(rec.t, t_pos, pos, vel)
     store.append_move(step, t=rec.t, samples=rec.samples, q_ref=quat_from_matrix(geometry.rotation(*table_deg.T)),
                       table_deg=table_deg, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v)
+    log_read_errors(store, sampler)
 
 
 def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
@@ -106,16 +111,15 @@ def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGe
         drift = float(np.ptp(np.asarray(readings), axis=0).max())
         if drift > m.tolerance_deg:
             moved = f"encoders moved {drift:.4f} deg during the hold"
-        if moved is None or attempt == m.max_hold_attempts:
+        if moved is None:
             measured = tuple(float(v) for v in np.mean(readings, axis=0))
             table_deg = np.tile(measured, (rec.t.size, 1))
             q = quat_from_matrix(geometry.rotation(*measured))
-            if moved is not None:
-                store.log_event("hold-motion", f"hold {step} still moving after {attempt} attempts: {moved}",
-                                float(rec.t[-1]))
             store.append_hold(step, t=rec.t, samples=rec.samples, q_ref=np.tile(q, (rec.t.size, 1)),
                               table_deg=table_deg, commanded_deg=(target.outer_deg, target.inner_deg),
                               measured_deg=measured, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, attempt=attempt)
+            log_read_errors(store, sampler)
             return rec
         store.log_event("hold-repeated", f"hold {step} attempt {attempt}: {moved}", float(rec.t[-1]))
-    raise HoldFailed(f"hold {step} could not be recorded")
+    raise HoldFailed(f"hold {step} kept moving in all {m.max_hold_attempts} attempts (see the session's "
+                     f"hold-repeated events); nothing of it was stored, so `rig resume` retries it")

@@ -10,11 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline
 
 from procedures.acquisition import Sampler
 from procedures.calibration import MotionSettings, position_table
 from procedures.planning import Orientation
+from procedures.reference import interpolate_angles
 from rig.clock import Clock
 from rig.rotations import TableGeometry, quat_from_matrix
 from rig.session_data import SessionData
@@ -86,9 +86,7 @@ def _session(rec, phases, ref_t, ref_pos, ref_vel, geometry, m, sampler_t0: floa
         is_move[k:k + n] = phase == "move"
         step[k:k + n] = j
         k += n
-    keep = np.concatenate([[True], np.diff(ref_t) > 0])
-    angles = np.column_stack([CubicHermiteSpline(ref_t[keep], ref_pos[keep, i], ref_vel[keep, i])(rec.t)
-                              for i in range(2)])
+    angles = interpolate_angles(rec.t, ref_t, ref_pos, ref_vel)
     q = quat_from_matrix(geometry.rotation(angles[:, 0], angles[:, 1]))
     cols = {"accel": ["ax", "ay", "az"], "gyro": ["gx", "gy", "gz"], "mag": ["mx", "my", "mz"]}
     return SessionData(t=rec.t - rec.t[0], is_move=is_move, step=step, q_ref=q, raw=rec.samples,

@@ -96,3 +96,22 @@ def test_a_move_that_never_arrives_fails_with_the_table_stopped_and_disabled():
             record(rig, store, SCHEDULE[:3])
         assert_table_safe(rig)
     assert list(store.holds) == [0]       # the inner axis was already at hold 0; the move to hold 1 failed
+
+
+def test_a_hold_that_never_stops_moving_fails_after_three_attempts_and_stores_nothing_of_it():
+    from procedures.calibration import HoldFailed
+
+    with sim_rig() as rig:
+        rig.board.start()
+
+        def keep_bumping(step):
+            if step == 1:
+                now = rig.clock.now()
+                rig.world.bumps.extend(Bump(now + 2.0 + 5.1 * k, amplitude_deg=0.3) for k in range(3))
+
+        store = MemoryStore(on_move=keep_bumping)
+        with pytest.raises(HoldFailed, match="hold 2 kept moving in all 3 attempts"):
+            record(rig, store, SCHEDULE[:4])
+        assert_table_safe(rig)
+    assert sorted(store.holds) == [0, 1]
+    assert [k for k, _ in store.events] == ["hold-repeated"] * 3
