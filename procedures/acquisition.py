@@ -130,6 +130,11 @@ class Sampler:
         return rec
 
     @property
+    def rows(self) -> int:
+        """Rows recorded since the last take."""
+        return len(self._t)
+
+    @property
     def now(self) -> float:
         """Clock time of the next tick."""
         return self.t0 + self._k * self.dt

@@ -33,6 +33,7 @@ class MotionSettings:
     rate_hz: float = 100.0
     mag_every: int = 2
     max_hold_attempts: int = 3
+    watchdog_ms: int = 2000
 
 
 HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdog, cheap on the bus
@@ -40,6 +41,14 @@ HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdo
 
 class HoldFailed(RuntimeError):
     """A hold kept moving in every allowed attempt: the table or its surroundings are not still."""
+
+
+def arm_table(table: Table, m: MotionSettings) -> None:
+    """Enable the servos with the table's comms watchdog armed: if this host dies mid-session, the table
+    stops by itself within `watchdog_ms` (the rig polls well inside that; make_safe disarms it)."""
+    if m.watchdog_ms:
+        table.set_watchdog(int(m.watchdog_ms))
+    table.enable()
 
 
 def position_table(table: Table, clock: Clock, target: Orientation, m: MotionSettings) -> None:
@@ -56,7 +65,7 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     Returns acquisition figures: ticks sampled and reads that found no fresh sample (late_reads).
     """
     n = len(schedule)
-    table.enable()
+    arm_table(table, m)
     first = schedule[max(start_step - 1, 0)]
     if progress:
         progress(start_step, n, "positioning")

@@ -30,7 +30,7 @@ def motion_settings(config: RigConfig) -> MotionSettings:
     t, s = config.turntable, config.schedule
     return MotionSettings(speed_dps=t.speed_dps, accel_dps2=t.accel_dps2, tolerance_deg=t.tolerance_deg,
                           settle_s=t.settle_s, poll_every=t.poll_every, hold_s=s.hold_s, rate_hz=s.rate_hz,
-                          mag_every=s.mag_every, max_hold_attempts=s.max_hold_attempts)
+                          mag_every=s.mag_every, max_hold_attempts=s.max_hold_attempts, watchdog_ms=t.watchdog_ms)
 
 
 def session_metadata(config: RigConfig, schedule: list[Orientation], *, sim: bool, seed: int | None,

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procedures.acquisition import Sampler
-from procedures.calibration import MotionSettings, position_table
+from procedures.calibration import HOLD_POLL_S, MotionSettings, arm_table, position_table
 from procedures.planning import Orientation
 from procedures.reference import interpolate_angles
 from rig.clock import Clock
@@ -37,7 +37,7 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
                    ts: TrajectorySettings | None = None) -> SessionData:
     """Record hold 0, the motion (phase 'move', step 0) and hold 1; returns the session arrays."""
     ts = ts or TrajectorySettings()
-    table.enable()
+    arm_table(table, m)
     position_table(table, clock, ts.start, m)
     sampler = Sampler(board, clock, m.rate_hz, m.mag_every)
     ref_t, ref_pos, ref_vel = [], [], []
@@ -50,11 +50,21 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
         return ref_vel[-1]
 
     hold_ticks = int(round(ts.hold_s * m.rate_hz))
+    chunk = max(int(round(HOLD_POLL_S * m.rate_hz)), 1)
+
+    def hold() -> int:
+        """Sample a hold, reading the encoders every HOLD_POLL_S (reference, and the watchdog's keep-alive);
+        returns the rows it recorded."""
+        r0 = sampler.rows
+        for k in range(0, hold_ticks, chunk):
+            sampler.run(min(chunk, hold_ticks - k))
+            poll()
+        return sampler.rows - r0
+
     phases = []
     poll()
-    sampler.run(hold_ticks)
-    phases.append(("hold", 0, hold_ticks))
-    k0 = sampler._k
+    phases.append(("hold", 0, hold()))
+    r0 = sampler.rows
     for rate_outer, rate_inner, seconds in ts.segments:
         table.move_velocity(0, rate_outer, ts.accel_dps2)
         table.move_velocity(1, rate_inner, ts.accel_dps2)
@@ -67,12 +77,12 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
         sampler.run(ts.poll_every)
         if max(abs(v) for v in vel) == 0.0:
             break
-    sampler.run(int(round(m.settle_s * m.rate_hz)))
-    phases.append(("move", 0, sampler._k - k0))
+    for _ in range(max(int(round(m.settle_s * m.rate_hz / ts.poll_every)), 1)):
+        sampler.run(ts.poll_every)
+        poll()
+    phases.append(("move", 0, sampler.rows - r0))
     poll()
-    sampler.run(hold_ticks)
-    poll()
-    phases.append(("hold", 1, hold_ticks))
+    phases.append(("hold", 1, hold()))
     rec = sampler.take()
     table.make_safe()
     return _session(rec, phases, np.array(ref_t), np.array(ref_pos), np.array(ref_vel), geometry, m, sampler.t0)

@@ -57,10 +57,12 @@ def build_real(config: RigConfig, *, open_i2c=None, open_spi=None) -> Rig:
         stack.callback(dev.close)
         return dev
 
-    board = build_board(config.board, i2c=bus, spi=spi, sleep=clock.sleep, overrides=config.chips.get(config.board))
-    link = _link(config, clock)
-    stack.enter_context(link)
-    return Rig(config, clock, link, board, _stack=stack)
+    with stack:
+        board = build_board(config.board, i2c=bus, spi=spi, sleep=clock.sleep,
+                            overrides=config.chips.get(config.board))
+        link = _link(config, clock)
+        stack.enter_context(link)
+        return Rig(config, clock, link, board, _stack=stack.pop_all())
 
 
 def _link(config: RigConfig, clock: Clock, url: str | None = None) -> TurntableLink:
@@ -74,14 +76,14 @@ def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: f
     from fixtures.simrig import SimulatedHardware
 
     clock = SimClock(time_scale=time_scale)
-    stack = contextlib.ExitStack()
-    hw = SimulatedHardware(config, clock, seed=seed, trial=trial)
-    stack.enter_context(hw)
-    board = build_board(config.board, i2c=hw.i2c, spi=hw.spi, set_reset=hw.set_reset, sleep=clock.sleep)
-    link = _link(config, clock, hw.url)
-    stack.enter_context(link)
-    return Rig(config, clock, link, board, world=hw.world, fake_table=hw.turntable, truth_fn=hw.truth,
-               _stack=stack)
+    with contextlib.ExitStack() as stack:
+        hw = SimulatedHardware(config, clock, seed=seed, trial=trial)
+        stack.enter_context(hw)
+        board = build_board(config.board, i2c=hw.i2c, spi=hw.spi, set_reset=hw.set_reset, sleep=clock.sleep)
+        link = _link(config, clock, hw.url)
+        stack.enter_context(link)
+        return Rig(config, clock, link, board, world=hw.world, fake_table=hw.turntable, truth_fn=hw.truth,
+                   _stack=stack.pop_all())
 
 
 def truth_after_start(rig: Rig) -> dict | None:

@@ -25,6 +25,7 @@ class TurntableConfig:
     tolerance_deg: float = 0.01
     settle_s: float = 0.3
     poll_every: int = 10               # encoder/status poll every N sample ticks during moves
+    watchdog_ms: int = 2000            # the table stops by itself if the rig goes quiet this long (0: off)
 
 
 @dataclass

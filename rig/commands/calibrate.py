@@ -24,9 +24,20 @@ def _progress_bar(total: int, enabled: bool):
     return bar, progress
 
 
+def _terminate_as_interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 def run_session_to(out: Path, config: RigConfig, *, sim: bool, seed: int, time_scale: float | None,
                    method: str, progress: bool, resume: bool = False, trial: int = 0) -> int:
-    """Record (or finish recording) a session in `out`, then calibrate and report. Returns the exit status."""
+    """Record (or finish recording) a session in `out`, then calibrate and report. Returns the exit status.
+
+    SIGTERM and SIGHUP are handled like Ctrl-C: the table is stopped and disabled, the session marked aborted.
+    """
+    import signal
+
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, _terminate_as_interrupt)
     from procedures.session import check_plan, plan_for, record, session_metadata, write_json
     from rig.assembly import build_real, build_sim, truth_after_start
     from rig.store import SessionStore
@@ -90,19 +101,25 @@ def finish_session(out: Path, store, *, method: str, settle_s: float = 0.0) -> i
     from rig.pipeline import calibrate_session
     from rig.report import write_report
 
+    from rig.errors import CalibrationError
+
     meta = store.metadata
     session = store.to_session_data()
-    result = calibrate_session(session, method=method, settle_s=settle_s)
+    try:
+        result = calibrate_session(session, method=method, settle_s=settle_s)
+    except CalibrationError as e:
+        store.set_status("failed", f"calibration: {e}")
+        raise click.ClickException(f"{out}: the recorded session cannot be calibrated: {e}") from None
     unit = meta.get("unit", {})
     write_calibration(out / "calibration.json", result.sensors, gravity=session.gravity, field_uT=session.field_uT,
                       unit_serial=unit.get("serial"), board=unit.get("board"),
                       extra={"session": str(out), "warnings": result.warnings})
     truth = meta.get("truth")
     limits = (meta.get("config") or {}).get("limits")
-    store.set_status("complete", "")
     report = write_report(out, session, result.sensors, gravity=session.gravity, field_uT=session.field_uT,
-                          truth=truth, limits=limits, metadata=store.metadata)
+                          truth=truth, limits=limits, metadata={**store.metadata, "status": "complete"})
     store.update_metadata(calibration="calibration.json", report=report.name)
+    store.set_status("complete", "")
     for line in result.summary:
         click.echo(line)
     for line in result.warnings:

@@ -149,7 +149,8 @@ class TurntableLink:
                     raise
 
     def make_safe(self, standstill_timeout: float = 10.0) -> None:
-        """Stop, wait for standstill within a bound, disable. Never raises: it runs in `finally` paths.
+        """Stop, wait for standstill within a bound, disable, disarm the watchdog. Never raises: it runs in
+        `finally` paths.
 
         If the link itself is down the remaining steps are skipped (each would only wait out its
         retries); the table's own WATCHDOG_MS, if set, is what stops it then.
@@ -157,7 +158,7 @@ class TurntableLink:
         if not self.channel.is_open:
             return
         steps = (("stop", self.stop), ("wait for standstill", lambda: self._wait_standstill(standstill_timeout)),
-                 ("disable", self.disable))
+                 ("disable", self.disable), ("disarm the comms watchdog", lambda: self.set_watchdog(0)))
         for step, action in steps:
             try:
                 action()
