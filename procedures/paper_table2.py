@@ -100,7 +100,7 @@ def run_table2(runs: int = 20, seed: int = 0, *, orientations: int = 10, noise_r
         for c, k in enumerate(iterations):
             opt = calibrate_gyro_trust_region(moves, B, H0=H0, max_nfev=k)
             opt_err[r, c] = _rel_err(opt.H, H_true)
-    rows = [{"iterations": k,
+    rows = [{"iteration": k,
              "ukf_mean_pct": 100 * float(ukf_err[:, c].mean()), "ukf_std_pct": 100 * float(ukf_err[:, c].std(ddof=1)),
              "optimizer_mean_pct": 100 * float(opt_err[:, c].mean()),
              "optimizer_std_pct": 100 * float(opt_err[:, c].std(ddof=1))}
@@ -119,7 +119,7 @@ def plot_table2(result: dict, out_dir: str | Path) -> list[Path]:
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    it = [r["iterations"] for r in result["rows"]]
+    it = [r["iteration"] for r in result["rows"]]
     paths = []
     for key, label, name in (("mean", "mean error (%)", "fig5_gyro_error_mean.png"),
                              ("std", "std of error (%)", "fig6_gyro_error_std.png")):

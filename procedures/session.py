@@ -55,20 +55,16 @@ def check_plan(config: RigConfig, schedule: list[Orientation]) -> list[str]:
     must span all three fixture axes. The magnetometer's field direction is unknown until calibrated, so it
     is not checked here (a schedule that excites the accelerometer on a tumble table excites it too).
     """
-    from rig.calibration.observability import check_schedule
-    from rig.rotations import rotvec_from_matrix
+    from rig.calibration.observability import check_schedule, move_axes_problem
 
     R = schedule_rotations(schedule, config.geometry)
     problems = []
     rep = check_schedule(R, reference_world=(0.0, 0.0, 1.0))
     if not rep.ok:
         problems.append(f"accel: {rep.message}")
-    axes = rotvec_from_matrix(np.einsum("kji,kjl->kil", R[:-1], R[1:]))
-    sv = np.linalg.svd(axes, compute_uv=False) if len(axes) >= 3 else np.zeros(3)
-    if len(axes) < 3 or sv[-1] < 0.1 * sv[0]:
-        _, _, vt = np.linalg.svd(axes if len(axes) else np.eye(3))
-        weak = "xyz"[int(np.argmax(np.abs(vt[-1])))]
-        problems.append(f"gyro: the moves hardly rotate about fixture {weak} (singular values {np.round(sv, 3)})")
+    gyro = move_axes_problem(np.einsum("kji,kjl->kil", R[:-1], R[1:]))
+    if gyro:
+        problems.append(f"gyro: {gyro}")
     return problems
 
 
@@ -84,6 +80,6 @@ def record(rig, store, schedule: list[Orientation], *, start_step: int = 0, sess
 
 
 def write_json(path: Path, data: dict) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2) + "\n")
-    tmp.replace(path)
+    from rig.io.atomic import write_text_atomic
+
+    write_text_atomic(path, json.dumps(data, indent=2) + "\n")

@@ -74,12 +74,38 @@ def load_config(path: str | Path | None = None) -> RigConfig:
     return _from_dict(raw, where)
 
 
+SECTIONS = {"unit": ("serial", "board", "operator"),
+            "table": ("outer_axis_world", "inner_axis_fixture", "outer_zero_deg", "inner_zero_deg"),
+            "environment": ("gravity_mps2", "field_uT"),
+            "turntable": None, "schedule": None, "limits": None, "chips": None}
+
+
+def _check_keys(raw: dict, where: str) -> None:
+    """Unknown sections and keys are errors: a misspelt key silently ignored is a wrong calibration."""
+    unknown = set(raw) - set(SECTIONS)
+    if unknown:
+        raise ValueError(f"{where}: unknown sections {sorted(unknown)}; allowed: {sorted(SECTIONS)}")
+    for name, keys in SECTIONS.items():
+        if keys is not None and not set(raw.get(name, {})) <= set(keys):
+            raise ValueError(f"{where}: [{name}] has unknown keys {sorted(set(raw[name]) - set(keys))}; "
+                             f"allowed: {sorted(keys)}")
+
+
 def _section(raw: dict, name: str, cls, where: str):
     data = raw.get(name, {})
     known = set(cls.__dataclass_fields__)
     unknown = set(data) - known
     if unknown:
         raise ValueError(f"{where}: [{name}] has unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
+    defaults = cls()
+    for key, value in data.items():
+        default = getattr(defaults, key)
+        numeric = isinstance(default, (int, float)) and not isinstance(default, bool)
+        if numeric and (isinstance(value, bool) or not isinstance(value, (int, float))):
+            raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a number")
+        if isinstance(default, int) and not isinstance(default, bool) and isinstance(value, float) \
+                and not value.is_integer():
+            raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a whole number")
     try:
         return cls(**data)
     except TypeError as e:
@@ -87,6 +113,7 @@ def _section(raw: dict, name: str, cls, where: str):
 
 
 def _from_dict(raw: dict, where: str) -> RigConfig:
+    _check_keys(raw, where)
     unit = raw.get("unit", {})
     board = unit.get("board", "bsn")
     if board not in BOARDS:
@@ -103,8 +130,14 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
                     schedule=_section(raw, "schedule", ScheduleConfig, where),
                     gravity_mps2=float(env.get("gravity_mps2", 9.80665)), field_uT=float(env.get("field_uT", 50.0)),
                     limits=dict(raw.get("limits", {})), chips=dict(raw.get("chips", {})), source=where)
-    if not 6 <= cfg.schedule.orientations <= 64:
-        raise ValueError(f"{where}: [schedule] orientations = {cfg.schedule.orientations}; use 10 to 20 (6..64 allowed)")
+    if not 9 <= cfg.schedule.orientations <= 64:
+        raise ValueError(f"{where}: [schedule] orientations = {cfg.schedule.orientations}; use 10 to 20 "
+                         "(9..64 allowed: the ellipsoid needs 9)")
+    if cfg.schedule.max_hold_attempts < 1 or cfg.turntable.poll_every < 1:
+        raise ValueError(f"{where}: [schedule] max_hold_attempts and [turntable] poll_every must be at least 1")
+    for key in ("speed_dps", "accel_dps2", "tolerance_deg"):
+        if not getattr(cfg.turntable, key) > 0:
+            raise ValueError(f"{where}: [turntable] {key} must be positive")
     if cfg.schedule.hold_s <= 0 or cfg.schedule.rate_hz <= 0:
         raise ValueError(f"{where}: [schedule] hold_s and rate_hz must be positive")
     from rig.report.limits import LimitsError, validate_limits

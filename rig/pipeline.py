@@ -32,7 +32,6 @@ MOTION_STD_FLOOR_COUNTS = 1.0
 # A gyro hold mean further than this many robust sigmas from the bias was turning.
 GYRO_MEAN_SIGMAS = 6.0
 # Rotation vectors of the moves must span 3-D, else one gyro axis is never excited.
-MOVE_SPREAD_RATIO_MIN = 0.05
 RESIDUAL_WARN_FRACTION = 0.01   # accel/mag residual above 1 % of |g| or |m|
 DEFAULT_GRAVITY = 9.80665
 
@@ -48,7 +47,7 @@ class SessionCalibration:
     holds_used: dict[str, int] = field(default_factory=dict)
 
 
-def calibrate_session(session: SessionData, *, method: str = "two-step", settle_s: float = 0.5) -> SessionCalibration:
+def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: float = 0.5) -> SessionCalibration:
     """Calibrate every sensor of `session`; raises CalibrationError where the data cannot support it."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -79,7 +78,7 @@ def calibrate_session(session: SessionData, *, method: str = "two-step", settle_
 
 def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.PathLike, *, fmt: str = "interchange",
                        accel_file: str | os.PathLike | None = None, gyro_file: str | os.PathLike | None = None,
-                       method: str = "two-step", settle_s: float = 0.5, gravity: float | None = None,
+                       method: str = "joint", settle_s: float = 0.5, gravity: float | None = None,
                        unit_serial: str | None = None, board: str | None = None,
                        echo: Callable[[str], None] = print) -> SessionCalibration:
     """Read a session folder, calibrate it, write `OUT/calibration.json`, echo a short summary.
@@ -357,15 +356,11 @@ def _trusted_moves(session: SessionData, excluded: dict[int, str], warnings: lis
 
 def _check_move_axes(moves: list[MoveStream]) -> None:
     """The known rotations must turn the fixture about three independent axes, else H loses a column."""
-    from rig.rotations import rotvec_from_matrix
+    from rig.calibration.observability import move_axes_problem
 
-    phi = rotvec_from_matrix(np.array([m.known_rotation for m in moves]))
-    s = np.linalg.svd(phi, compute_uv=False)
-    if s[0] == 0 or s[-1] < MOVE_SPREAD_RATIO_MIN * s[0]:
-        _, _, Vt = np.linalg.svd(phi)
-        axis = np.round(Vt[-1], 2).tolist()
-        raise CalibrationError(f"gyro: the moves never rotate about fixture direction {axis} (rotation-vector spread "
-                               f"ratio {s[-1] / s[0] if s[0] else 0:.3g}); the gyro's H is unobservable along it")
+    problem = move_axes_problem(np.array([m.known_rotation for m in moves]))
+    if problem:
+        raise CalibrationError(f"gyro: {problem}")
 
 
 def _reference_norm(session: SessionData, name: str) -> float | None:

@@ -178,3 +178,25 @@ def _as_rotations(R: np.ndarray, what: str = "schedule") -> np.ndarray:
     if bad.size:
         raise CalibrationError(f"{what}: rotation(s) {bad.tolist()} are not proper rotations (R^T R != I or det < 0)")
     return R
+
+
+MOVE_SPREAD_RATIO_MIN = 0.05
+
+
+def move_axes_problem(known_rotations: np.ndarray) -> str | None:
+    """Why the gyro's H is unobservable from these moves, or None.
+
+    The known rotations (k, 3, 3) must turn the fixture about three independent axes: the smallest singular
+    value of their stacked rotation vectors, relative to the largest, must not vanish.
+    """
+    from rig.rotations import rotvec_from_matrix
+
+    phi = rotvec_from_matrix(np.asarray(known_rotations, dtype=float).reshape(-1, 3, 3))
+    if len(phi) < 3:
+        return f"only {len(phi)} moves; at least 3 turning about independent axes are needed"
+    _, s, vt = np.linalg.svd(phi)
+    if s[0] == 0 or s[-1] < MOVE_SPREAD_RATIO_MIN * s[0]:
+        axis = np.round(vt[-1], 2).tolist()
+        return (f"the moves never rotate about fixture direction {axis} (rotation-vector spread ratio "
+                f"{s[-1] / s[0] if s[0] else 0:.3g}); the gyro's H is unobservable along it")
+    return None

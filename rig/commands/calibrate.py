@@ -160,7 +160,7 @@ def truth_errors(sensors: dict, truth: dict) -> list[str]:
 @click.option("--time-scale", type=float, default=None, help="Run the simulated rig at X times real time.")
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True,
               help="Accelerometer/magnetometer estimator.")
-@click.option("--orientations", type=click.IntRange(6, 64), default=None, help="Override the schedule size.")
+@click.option("--orientations", type=click.IntRange(9, 64), default=None, help="Override the schedule size.")
 @click.option("--gravity", type=float, default=None,
               help="Local gravity in m/s^2 for imu_tk data (default 9.80665; interchange sessions carry their own).")
 @click.option("--settle-s", type=float, default=0.5, show_default=True,
@@ -218,7 +218,7 @@ def resume(session, method, no_progress):
 
 @click.command()
 @click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False))
-@click.option("--orientations", type=click.IntRange(6, 64), default=None)
+@click.option("--orientations", type=click.IntRange(9, 64), default=None)
 def plan(config_path, orientations):
     """Dry run: the schedule, its observability and the ETA. Nothing moves."""
     from procedures.planning import estimate_duration

@@ -18,7 +18,12 @@ def export(session, to):
     store = SessionStore.open(session)
     meta = store.metadata
     data = store.to_session_data()
-    extra = {k: meta[k] for k in ("unit", "operator", "started", "ended", "status", "software", "truth")
+    extra = {k: meta[k] for k in ("unit", "operator", "start_utc", "end_utc", "status", "software", "truth")
              if k in meta}
-    write_session(data, to, extra_meta={"rig_session": extra})
+    config = meta.get("config") or {}
+    geometry = config.get("geometry") or {}
+    if data.sample_rate_hz is None and (config.get("schedule") or {}).get("rate_hz"):
+        data.sample_rate_hz = float(config["schedule"]["rate_hz"])
+    table = {k: geometry[k] for k in ("outer_axis_world", "inner_axis_fixture") if k in geometry}
+    write_session(data, to, extra_meta={"table": table, "rig_session": extra} if table else {"rig_session": extra})
     click.echo(f"wrote {to / 'meta.json'} and {to / 'samples.csv'} ({data.t.size} rows)")

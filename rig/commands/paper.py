@@ -1,4 +1,5 @@
-"""`rig paper`: the Monte Carlo of the paper's Tables I and II, side by side with the published rows."""
+"""`rig paper`: the Monte Carlo of the paper's Tables I and II (Zhang et al. 2015), printed beside the paper's
+published rows where those are known (they could not be retrieved here; the tables say so)."""
 
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ def paper(runs, json_out, plots, gyro_runs, seed):
             click.echo(f"  paper's rows: {table.get('published_note') or 'not available'}")
     click.echo(f"Table I: share of runs with B error < 0.1 %: {t1.get('b_within_0p1pct')}")
     json_out.parent.mkdir(parents=True, exist_ok=True)
-    json_out.write_text(json.dumps({"table1": t1, "table2": t2}, indent=2, default=float) + "\n")
+    json_out.write_text(json.dumps(_finite({"table1": t1, "table2": t2}), indent=2, allow_nan=False) + "\n")
     if plots:
         plots.mkdir(parents=True, exist_ok=True)
         plot_table1(t1, plots)
@@ -39,14 +40,33 @@ def paper(runs, json_out, plots, gyro_runs, seed):
     click.echo(f"wrote {json_out}")
 
 
+def _finite(obj):
+    """JSON has no NaN: an undefined statistic (a standard deviation of one run) becomes null."""
+    import math
+
+    import numpy as np
+
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _finite(obj.tolist())
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
+
+
 def format_rows(table: dict) -> list[str]:
     lines = []
-    published = {r.get("iteration", r.get("iterations")): r for r in (table.get("published") or {}).get("rows", [])} \
+    published = {r.get("iteration"): r for r in (table.get("published") or {}).get("rows", [])} \
         if isinstance(table.get("published"), dict) else {}
     for row in table.get("rows", []):
-        it = row.get("iteration", row.get("iterations"))
+        it = row.get("iteration")
         fields = ", ".join(f"{k} {v:.3g}" for k, v in row.items()
-                           if k not in ("iteration", "iterations") and isinstance(v, (int, float)))
+                           if k != "iteration" and isinstance(v, (int, float)) and v == v)
         line = f"iteration {it:>2}: {fields}"
         if it in published:
             line += f" | paper: {published[it]}"

@@ -15,7 +15,7 @@ import click
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path))
 @click.option("--seed", type=int, default=0, show_default=True, help="The simulated unit.")
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True)
-@click.option("--orientations", type=click.IntRange(6, 64), default=None)
+@click.option("--orientations", type=click.IntRange(9, 64), default=None)
 def repeatability(sim, config_path, trials, out, seed, method, orientations):
     """Run TRIALS sessions on one unit and report the mean and standard deviation of B and H (paper Fig. 7)."""
     from rig.commands.calibrate import _config, run_session_to

@@ -8,7 +8,7 @@ from procedures.paper_table2 import plot_table2, run_table2
 def test_table2_small_run_and_plots(tmp_path):
     result = run_table2(runs=3, seed=1, iterations=(1, 2, 5))
     rows = result["rows"]
-    assert [r["iterations"] for r in rows] == [1, 2, 5]
+    assert [r["iteration"] for r in rows] == [1, 2, 5]
     assert result["published"] is None and "not retrievable" in result["published_note"]
     ukf = [r["ukf_mean_pct"] for r in rows]
     opt = [r["optimizer_mean_pct"] for r in rows]

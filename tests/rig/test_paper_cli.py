@@ -14,7 +14,7 @@ def test_paper_writes_both_tables_and_figures(tmp_path):
     data = json.loads(out.read_text())
     t1, t2 = data["table1"], data["table2"]
     assert [r["iteration"] for r in t1["rows"]] == [2, 5, 10, 15, 20, 30, 50]
-    assert [r["iterations"] for r in t2["rows"]] == [2, 5, 10, 15, 20, 30, 50]
+    assert [r["iteration"] for r in t2["rows"]] == [2, 5, 10, 15, 20, 30, 50]
     assert 0.0 <= t1["b_within_0p1pct"] <= 1.0 and t1["runs"] == 30
     # the two-step iteration converges: its H error after 50 iterations is below its error after 2
     assert t1["rows"][-1]["ours_H_mean"] <= t1["rows"][0]["ours_H_mean"]
