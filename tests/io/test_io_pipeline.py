@@ -52,7 +52,7 @@ def test_from_dir_end_to_end(tmp_path, base):
     np.testing.assert_array_equal(np.array(doc["sensors"]["accel"]["H"]), result.sensors["accel"].H)
     assert_matches_truth(result.sensors, truth)
     text = "\n".join(lines)
-    for name in ("accel: two-step, 20 holds", "gyro: gyro-ukf", "mag: two-step", "B = [", "H = [", "+/-", "wrote "):
+    for name in ("accel: joint-ml, 20 holds", "gyro: gyro-ukf", "mag: joint-ml", "B = [", "H = [", "+/-", "wrote "):
         assert name in text
     assert "warning: dropped the first 0.5 s of every hold as settling" in text
 
