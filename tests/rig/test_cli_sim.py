@@ -100,14 +100,15 @@ def test_sigkill_mid_session_then_resume_completes_without_loss_or_duplicates(tm
     assert (out / "calibration.json").exists()
 
 
-def test_sigint_marks_the_session_aborted_and_exits_nonzero(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_stop_signal_leaves_the_table_safe_and_the_session_aborted(tmp_path, sig):
     out = tmp_path / "interrupted"
     proc = subprocess.Popen([*RIG, "calibrate", "--sim", "--no-progress", "--time-scale", "40", "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not ((out / "session.sqlite").exists() and _holds_in_file(out) >= 2):
         time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     from rig.store import SessionStore
