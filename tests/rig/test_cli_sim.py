@@ -101,7 +101,7 @@ def test_sigkill_mid_session_then_resume_completes_without_loss_or_duplicates(tm
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_a_stop_signal_leaves_the_table_safe_and_the_session_aborted(tmp_path, sig):
+def test_a_stop_signal_marks_the_session_aborted_and_exits_130(tmp_path, sig):
     out = tmp_path / "interrupted"
     proc = subprocess.Popen([*RIG, "calibrate", "--sim", "--no-progress", "--time-scale", "40", "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
