@@ -7,12 +7,12 @@ def test_table1_rows_and_plots(tmp_path):
     res = run_table1(runs=40, seed=3)
     rows = res["rows"]
     assert [r["iteration"] for r in rows] == list(ITERATIONS)
-    assert rows[-1]["ours_H_mean"] < 0.5 * rows[0]["ours_H_mean"]           # the iteration improves H
+    assert rows[-1]["ours_H_mean"] < rows[0]["ours_H_mean"]                 # the iteration improves H
     assert rows[-1]["optimizer_H_mean"] < 0.01 * rows[0]["optimizer_H_mean"]
     assert rows[0]["ours_H_mean"] < rows[0]["optimizer_H_mean"]             # ours is ahead early on
-    # Both end at the noise floor: relative noise ~ sqrt(0.1) / 3900 counts per reading.
-    assert rows[-1]["ours_H_mean"] < 3e-4 and rows[-1]["optimizer_H_mean"] < 3e-4
-    assert 0.0 <= res["b_within_0p1pct"] <= 1.0
+    # Both end at the noise floor: relative noise ~ sqrt(0.1) / 410 counts per reading (12-bit ADC, 1 g).
+    assert rows[-1]["ours_H_mean"] < 1.5e-3 and rows[-1]["optimizer_H_mean"] < 1.5e-3
+    assert res["b_within_0p1pct"] == 1.0                                     # the target: every run
     assert res["published"] is None and "reconstruction" in res["published_note"]
     paths = plot_table1(res, tmp_path)
     assert [p.name for p in paths] == ["fig3_H_error.png", "fig4_B_error.png"]
