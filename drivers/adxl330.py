@@ -10,7 +10,6 @@ import time
 from typing import Any, Callable, Sequence
 
 from drivers._analog import ADC_MID, check_plausible, validate_channels
-from drivers.errors import DeviceAbsent
 
 STANDARD_GRAVITY = 9.80665
 RATIO_PER_G = 0.1          # sensitivity as a fraction of VS per g [U, ADXL335 sibling]
@@ -54,7 +53,7 @@ class ADXL330:
     def read_supply_v(self) -> float:
         """Sensor supply VS in volts from the divided supply channel."""
         if self.supply_channel is None:
-            raise DeviceAbsent(f"{self.chip}: no supply_channel configured")
+            raise ValueError(f"{self.chip}: no supply_channel configured, so the supply cannot be read")
         return self.adc.read(self.supply_channel) * self.adc.vref / 4096 / self.supply_divider
 
     def settings(self) -> dict:

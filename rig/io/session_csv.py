@@ -52,6 +52,7 @@ def read_session(folder: str | os.PathLike) -> SessionData:
                                  "phase")
     step = col.integers("step")
     _check_move_steps(samples, phase == "move", step)
+    _check_hold_runs(samples, phase == "hold", step)
     q_ref = _quaternions(samples, col)
 
     raw = {name: _sensor_counts(samples, col, name, names) for name, names in meta["sensors"].items()}
@@ -262,6 +263,23 @@ def _check_move_steps(path: Path, is_move: np.ndarray, step: np.ndarray) -> None
         i = int(np.argmax(bad))
         raise SessionFormatError(path, f"move row has step {step[i]}, but the hold it leaves has step "
                                  f"{step[last_hold[i]]}", i + FIRST_DATA_LINE, "step")
+
+
+def _check_hold_runs(path: Path, is_hold: np.ndarray, step: np.ndarray) -> None:
+    """A hold's rows are one contiguous run: a step that comes back later is an error, not a guess at which
+    part to keep."""
+    rows = np.flatnonzero(is_hold)
+    if rows.size == 0:
+        return
+    starts = rows[np.concatenate([[True], (np.diff(rows) != 1) | (np.diff(step[rows]) != 0)])]
+    seen: dict[int, int] = {}
+    for r in starts:
+        j = int(step[r])
+        if j in seen:
+            raise SessionFormatError(path, f"hold step {j} appears again after other rows (it began at line "
+                                     f"{seen[j] + FIRST_DATA_LINE}); each hold must be one contiguous run",
+                                     int(r) + FIRST_DATA_LINE, "step")
+        seen[j] = int(r)
 
 
 def _quaternions(path: Path, col: _ColumnParser) -> np.ndarray:

@@ -264,3 +264,19 @@ def test_move_step_must_be_the_hold_it_leaves(folder, session):
     first_move = int(np.argmax(session.is_move))
     edit_cell(folder, first_move + 3, "step", "1")
     expect_error(folder, "samples.csv", first_move + 3, "step", "the hold it leaves has step 0")
+
+
+def test_a_hold_split_in_two_runs_is_an_error_naming_the_line(tmp_path):
+    """Rows of hold 3 interrupted by other rows: refuse rather than silently keep one part."""
+    from rig.io.session_csv import read_session, write_session
+
+    session, _ = build_session(seed=1)
+    holds = session.hold_rows()
+    step3 = dict(holds)[3]
+    middle = step3[len(step3) // 2]
+    session.step[middle] = 4
+    write_session(session, tmp_path / "s")
+    with pytest.raises(SessionFormatError) as err:
+        read_session(tmp_path / "s")
+    assert err.value.line == (middle + 1) + 2 and err.value.column == "step"   # the row after the changed one
+    assert "hold step 3 appears again" in str(err.value)
