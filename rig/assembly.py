@@ -71,13 +71,17 @@ def _link(config: RigConfig, clock: Clock, url: str | None = None) -> TurntableL
                          poll_interval=config.turntable.poll_every / rate)
 
 
-def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: float | None = None) -> Rig:
-    """The simulated rig: everything the real one has, emulated, with the truth known."""
+def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: float | None = None,
+              effects=()) -> Rig:
+    """The simulated rig: everything the real one has, emulated, with the truth known.
+
+    `effects` (from `fixtures.world.effects`) are hidden in the world, e.g. to test the discrepancy analysis.
+    """
     from fixtures.simrig import SimulatedHardware
 
     clock = SimClock(time_scale=time_scale)
     with contextlib.ExitStack() as stack:
-        hw = SimulatedHardware(config, clock, seed=seed, trial=trial)
+        hw = SimulatedHardware(config, clock, seed=seed, trial=trial, effects=effects)
         stack.enter_context(hw)
         board = build_board(config.board, i2c=hw.i2c, spi=hw.spi, set_reset=hw.set_reset, sleep=clock.sleep)
         link = _link(config, clock, hw.url)
