@@ -110,6 +110,36 @@ class Sampler:
             self.clock.sleep(self.dt / 8)
         self.late_reads += 1
 
+    def align_to(self, name: str, margin_s: float = 0.0) -> bool:
+        """Put the tick grid just after `name`'s own sample instants (found from its data-ready edge).
+
+        A chip that samples on its own clock otherwise hands over samples up to a period older than their
+        time stamps: a latency the gyro's move streams and any attitude filter would carry. The edge is
+        found coarsely, then again finely one period later. Returns False (grid unchanged) when the chip
+        has no data-ready flag or no edge shows within two periods.
+        """
+        ready = self._ready.get(name)
+        if ready is None:
+            return False
+        edge = self._edge(ready, self.dt / 20, 2 * self.dt)
+        if edge is None:
+            return False
+        sleep_until(self.clock, edge + self.dt - self.dt / 10)
+        fine = self._edge(ready, self.dt / 1000, self.dt / 5)
+        self.t0 = (fine if fine is not None else edge + self.dt) + margin_s - self._k * self.dt
+        return True
+
+    def _edge(self, ready, step: float, span: float) -> float | None:
+        """Clock time of the first False -> True transition of `ready`, polled every `step` for `span`."""
+        was = bool(ready())
+        for _ in range(int(span / step) + 1):
+            self.clock.sleep(step)
+            now_ready = bool(ready())
+            if now_ready and not was:
+                return self.clock.now()
+            was = now_ready
+        return None
+
     def run(self, ticks: int) -> None:
         for _ in range(ticks):
             self.tick()

@@ -71,6 +71,7 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
         progress(start_step, n, "positioning")
     position_table(table, clock, first, m)
     sampler = Sampler(board, clock, m.rate_hz, m.mag_every, session_t0=session_t0)
+    sampler.align_to("gyro")
     for j in range(start_step, n):
         if j > 0:
             if progress:

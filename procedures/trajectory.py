@@ -40,6 +40,7 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
     arm_table(table, m)
     position_table(table, clock, ts.start, m)
     sampler = Sampler(board, clock, m.rate_hz, m.mag_every)
+    sampler.align_to("gyro")
     ref_t, ref_pos, ref_vel = [], [], []
 
     def poll() -> tuple[float, float]:
