@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from scipy.optimize import minimize_scalar
 
@@ -160,7 +161,19 @@ def nominal_scale(moves: list[MoveStream], B: np.ndarray, *, min_rate_dps: float
     if not np.isfinite(peak) or peak <= 0:
         raise ValueError("gyro calibration: the moves show no rotation (raw rates equal the bias)")
     lo, hi = np.radians(min_rate_dps) / peak, np.radians(max_rate_dps) / peak
-    return scalar_search(lambda s: _scalar_cost(s, ms), lo, hi)
+    cost = lambda s: _scalar_cost(s, ms)  # noqa: E731
+    # A move's net angle cannot exceed s times its raw path length, so s >= angle / path for every move;
+    # the largest of these bounds is close to s when moves turn about nearly fixed axes: search near it
+    # first, and over the whole range only if the best lies at the edge of that bracket.
+    path = np.linalg.norm(ms.S, axis=-1).sum(axis=1)
+    angle = np.linalg.norm(Rotation.from_quat(ms.q_known, scalar_first=True).as_rotvec(), axis=-1)
+    bound = float(np.max(angle / np.where(path > 0, path, np.inf)))
+    if np.isfinite(bound) and lo < bound < hi:
+        a, b = bound * 0.8, min(bound * 2.5, hi)      # anisotropic scales let angle/path exceed s a little
+        s = scalar_search(cost, a, b)
+        if a * 1.06 < s < b / 1.06:
+            return s
+    return scalar_search(cost, lo, hi)
 
 
 def decimated(moves: list[MoveStream], stride: int) -> list[MoveStream]:
