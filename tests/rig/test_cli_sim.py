@@ -133,3 +133,14 @@ def test_repeatability_reports_the_spread_of_every_element(tmp_path):
     assert accel["mean"][accel["elements"].index("H[1,1]")] == pytest.approx(np.mean(h11), rel=1e-9)
     assert (out / "repeatability.md").exists() and (out / "repeatability_gyro.png").exists()
 
+
+
+def test_the_same_seed_reproduces_the_session_and_another_seed_is_another_unit(sim_session, tmp_path):
+    out, _ = sim_session
+    run("calibrate", "--sim", "--seed", "7", "--no-progress", "--out", str(tmp_path / "again"))
+    run("calibrate", "--sim", "--seed", "8", "--no-progress", "--orientations", "10", "--out", str(tmp_path / "other"))
+    a, b = (json.loads((p / "calibration.json").read_text())["sensors"] for p in (out, tmp_path / "again"))
+    assert a == b
+    assert json.loads((out / "truth.json").read_text()) == json.loads((tmp_path / "again" / "truth.json").read_text())
+    other = json.loads((tmp_path / "other" / "truth.json").read_text())
+    assert other["sensors"]["accel"]["B"] != json.loads((out / "truth.json").read_text())["sensors"]["accel"]["B"]
