@@ -1,8 +1,8 @@
 """Each sensor's latency against the sample stamps, estimated from the reference and removed.
 
 Why: a digital chip samples on its own timer and the rig reads its latest sample, so a row's value is
-older than the row's stamp by up to one of the chip's sample periods (on the sim rig: a few ms for the
-ITG-3200, ~16 ms for the 50 Hz HMC5843). At 130 deg/s, 5 ms is 0.65 deg: more than every other error of
+older than the row's stamp by up to one of the chip's sample periods (on the sim rig the sampler locks
+its ticks to the ITG-3200's samples, ~0; the 50 Hz HMC5843's are ~10 ms old). At 130 deg/s, 5 ms is 0.65 deg: more than every other error of
 the validation together. Like the constant frame rotation, this is a nuisance of the comparison that
 the reference can measure, so it is estimated, reported and removed:
 

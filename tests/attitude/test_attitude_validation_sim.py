@@ -47,9 +47,17 @@ def test_ours_against_the_ahrs_filters_on_the_same_data(validation):
     peers = {r.filter: _total(r) for r in result.rows if r.filter != "ukf"}
     assert set(peers) == {"madgwick", "mahony", "ekf", "ekf-defaults"}
     assert ours < 0.3 * peers["madgwick"] and ours < 0.3 * peers["mahony"]
-    # the ahrs EKF is near-optimal on this data too: over seeds the two (and the EKF's defaults) trade
-    # places within run-to-run scatter (benchmarks/bench_attitude.py), so only the same class is asserted
-    assert ours < 1.5 * peers["ekf"] and ours < 1.5 * peers["ekf-defaults"]
+    # Given our noise model the ahrs EKF is the same estimator as the UKF at this noise level (the unscented
+    # transform is the linearisation there, test_attitude_filter.py): it makes the same errors, and over ten
+    # seeds neither is better (benchmarks/bench_attitude.py; per seed within +-15 %). So that is asserted,
+    # not an order that flips with the seed.
+    ekf = next(r for r in result.rows if r.filter == "ekf")
+    rows = result.session_rows.evaluate
+    for i, axis in enumerate(AXES):
+        corr = np.corrcoef(result.ours().comparison.err_deg[rows, i], ekf.comparison.err_deg[rows, i])[0, 1]
+        assert corr > 0.9, (axis, corr)
+    assert 0.8 < ours / peers["ekf"] < 1.25
+    assert 0.5 < ours / peers["ekf-defaults"] < 2.0
 
 
 def test_the_frame_alignment_is_the_declination_and_the_latencies_are_found(validation):
@@ -59,7 +67,9 @@ def test_the_frame_alignment_is_the_declination_and_the_latencies_are_found(vali
     assert abs(abs(a["axis"][2]) - 1.0) < 1e-3
     lat = doc["filter"]["latency_s"]
     assert abs(lat["accel"]) < 1e-3                  # the analog accelerometer is read at the tick
-    assert 0.0 <= lat["gyro"] <= 0.011 and 0.0 <= lat["mag"] <= 0.021   # within one chip sample period
+    # the sampler locks its ticks just after the gyro's sample instants; the 50 Hz magnetometer's samples
+    # are older than their stamps by up to its period
+    assert abs(lat["gyro"]) < 2e-4 and 0.0 <= lat["mag"] <= 0.021
     assert doc["filter"]["mag_rejected_norm"] == 0 and doc["filter"]["mag_rejected_dip"] == 0
 
 
