@@ -350,7 +350,7 @@ def _trusted_moves(session: SessionData, excluded: dict[int, str], warnings: lis
             warnings.append(f"gyro: move {m.step} -> {end} not used: axis {'xyz'[axis]} at its rail {rail:g} "
                             "counts (rate beyond the range)")
             continue
-        out.append(m)
+        out.append(m.trimmed_to_motion())
     return out
 
 

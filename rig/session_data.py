@@ -39,11 +39,31 @@ class MoveStream:
     y: np.ndarray           # (m, 3) raw counts
     R_start: np.ndarray     # (3, 3) fixture -> world at hold j
     R_end: np.ndarray       # (3, 3) at hold j+1
+    q_ref: np.ndarray | None = None   # (m, 4) reference orientation on the same rows, where known
 
     @property
     def known_rotation(self) -> np.ndarray:
         """R_j^T R_{j+1}: the rotation the integrated gyro must reproduce (conventions.md)."""
         return self.R_start.T @ self.R_end
+
+    def trimmed_to_motion(self, margin_s: float = 0.05, still_rad_s: float = 0.01) -> "MoveStream":
+        """The stream cut to where the reference shows the table turning, plus a margin at both ends.
+
+        Outside that span the table stands still, so integrating there adds only rate noise (it grows as the
+        square root of the time integrated). Unchanged when the reference shows no motion at all (a session
+        that logs only hold orientations) or is missing.
+        """
+        if self.q_ref is None or len(self.t) < 3:
+            return self
+        dots = np.abs(np.einsum("ij,ij->i", self.q_ref[1:], self.q_ref[:-1])).clip(max=1.0)
+        speed = 2 * np.arccos(dots) / np.diff(self.t)
+        moving = np.flatnonzero(speed > still_rad_s)
+        if moving.size == 0:
+            return self
+        keep = (self.t >= self.t[moving[0]] - margin_s) & (self.t <= self.t[moving[-1] + 1] + margin_s)
+        if keep.sum() < 2:
+            return self
+        return MoveStream(self.step, self.t[keep], self.y[keep], self.R_start, self.R_end, self.q_ref[keep])
 
 
 @dataclass
@@ -128,7 +148,8 @@ class SessionData:
             idx = idx[have[idx]]
             if len(idx) < 2:
                 continue
-            out.append(MoveStream(j, self.t[idx], y[idx], mean_rotation(self.q_ref[a]), mean_rotation(self.q_ref[b])))
+            out.append(MoveStream(j, self.t[idx], y[idx], mean_rotation(self.q_ref[a]), mean_rotation(self.q_ref[b]),
+                                  self.q_ref[idx]))
         return out
 
 
