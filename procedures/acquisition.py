@@ -126,7 +126,8 @@ class Sampler:
             return False
         sleep_until(self.clock, edge + self.dt - self.dt / 10)
         fine = self._edge(ready, self.dt / 1000, self.dt / 5)
-        self.t0 = (fine if fine is not None else edge + self.dt) + margin_s - self._k * self.dt
+        # The edge's own sample was flagged to us already (reading the flag clears it): start with the next.
+        self.t0 = (fine if fine is not None else edge + self.dt) + self.dt + margin_s - self._k * self.dt
         return True
 
     def _edge(self, ready, step: float, span: float) -> float | None:
