@@ -17,6 +17,7 @@ from rig.errors import CalibrationError
 
 MIN_POINTS = 9
 DISTINCT_RADIUS = 0.02   # in units of the RMS spread of the points: ~1 deg of orientation
+_QI, _QJ, _QW = [0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2], np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
 
 
 @dataclass
@@ -51,8 +52,7 @@ def fit_ellipsoid(y: np.ndarray) -> EllipsoidFit:
         raise CalibrationError(f"ellipsoid fit: only {distinct} distinct orientations among {len(p)} points "
                                f"(repeats within {DISTINCT_RADIUS:g} of the spread count once); the ellipsoid "
                                f"needs {MIN_POINTS}")
-    x1, x2, x3 = p.T
-    D = np.column_stack([x1 * x1, x2 * x2, x3 * x3, 2 * x1 * x2, 2 * x1 * x3, 2 * x2 * x3, 2 * x1, 2 * x2, 2 * x3])
+    D = np.concatenate((p[:, _QI] * p[:, _QJ] * _QW, 2 * p), axis=1)   # x1^2 x2^2 x3^2 2x1x2 2x1x3 2x2x3 2x
     c, _, rank, sv = np.linalg.lstsq(D, np.ones(len(p)), rcond=None)
     if rank < 9 or sv[-1] < 1e-9 * sv[0]:
         raise CalibrationError("ellipsoid fit: the points are degenerate (coplanar or on a conic); "
@@ -75,7 +75,8 @@ def fit_ellipsoid(y: np.ndarray) -> EllipsoidFit:
 
 def _count_distinct_points(p: np.ndarray) -> int:
     """Points not within DISTINCT_RADIUS of an earlier point: a repeated hold adds no shape information."""
-    d2 = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=2)
+    sq = np.einsum("ij,ij->i", p, p)
+    d2 = sq[:, None] + sq[None, :] - 2.0 * (p @ p.T)
     close = np.triu(d2 < DISTINCT_RADIUS**2, 1)
     return int(len(p) - np.count_nonzero(close.any(axis=0)))
 

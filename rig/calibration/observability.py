@@ -158,7 +158,7 @@ def validate_holds(y_means: np.ndarray, R: np.ndarray | None = None, *, min_orie
 def require_spread(y: np.ndarray, what: str) -> None:
     """Raw points on a plane (affinely) cannot fix an ellipsoid: refuse rather than return a wrong H."""
     yc = y - y.mean(axis=0)
-    s = np.linalg.svd(yc, compute_uv=False)
+    s = np.sqrt(np.maximum(np.linalg.eigvalsh(yc.T @ yc), 0.0))[::-1]   # singular values of yc
     if s[-1] < SPREAD_RATIO_MIN * s[0]:
         raise CalibrationError(f"{what}: the orientations are coplanar (raw readings lie on a plane, spread ratio "
                                f"{s[-1] / s[0]:.3g}); one sensor direction is never excited — check the schedule "
