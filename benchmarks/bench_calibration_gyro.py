@@ -20,7 +20,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from procedures.paper_table2 import NOMINAL_COUNTS_PER_RAD_S, random_gyro_truth, simulate_gyro_moves  # noqa: E402
+from procedures.paper_table2 import (NOMINAL_COUNTS_PER_RAD_S, move_angle_noise, random_gyro_truth,  # noqa: E402
+                                     simulate_gyro_moves)
 from rig.calibration.gyro import calibrate_gyro_ukf  # noqa: E402
 from rig.calibration.gyro_baselines import calibrate_gyro_trust_region  # noqa: E402
 from rig.calibration.integrate import integrate_rotation  # noqa: E402
@@ -69,6 +70,22 @@ def gyro_cases(repeat: int) -> dict:
     return out
 
 
+def weighting_case(seeds: int = 40, noise: float = 0.005) -> dict:
+    """Duration-weighted UKF measurements against equal weights, on random moves of unequal length."""
+    errs = []
+    for seed in range(seeds):
+        rng = np.random.default_rng(1000 + seed)
+        H, B = random_gyro_truth(rng)
+        moves, _ = simulate_gyro_moves(rng, H, B, orientations=20, noise_rad_s=noise)
+        nr = move_angle_noise(moves, noise)
+        errs.append([np.linalg.norm(calibrate_gyro_ukf(moves, B, noise_rad=nr, weight_by_duration=wb).H - H)
+                     / np.linalg.norm(H) for wb in (False, True)])
+    e = np.array(errs)
+    return {"seeds": seeds, "noise_rad_s": noise, "rms_rel_err_equal_weights": float(np.sqrt(np.mean(e[:, 0] ** 2))),
+            "rms_rel_err_duration_weights": float(np.sqrt(np.mean(e[:, 1] ** 2))),
+            "duration_weights_better_in": int(np.sum(e[:, 1] < e[:, 0]))}
+
+
 def xsens_case(repeat: int) -> dict:
     acc, gyr = np.loadtxt(XSENS / "xsens_acc.mat"), np.loadtxt(XSENS / "xsens_gyro.mat")
     cal, t = timed(lambda: calibrate_turntable_free(acc[:, 0], acc[:, 1:], gyr[:, 1:], gravity=9.81744), repeat)
@@ -89,7 +106,8 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=15)
     args = ap.parse_args()
     print(json.dumps({"benchmark": "calibration_gyro", "target_ukf_19_moves_median_ms": 50,
-                      "gyro": gyro_cases(args.repeat), "turntable_free_xsens": xsens_case(max(3, args.repeat // 5))},
+                      "gyro": gyro_cases(args.repeat), "move_weighting": weighting_case(),
+                      "turntable_free_xsens": xsens_case(max(3, args.repeat // 5))},
                      indent=2))
 
 

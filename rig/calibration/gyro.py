@@ -208,7 +208,8 @@ def _moves_rms(H: np.ndarray, ms: MoveSet) -> tuple[float, np.ndarray]:
 def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray | None = None,
                        noise_rad: float = 1e-3, max_passes: int = 20, min_passes: int = 3, tol: float = 1e-4,
                        prior_rel_std: float = 0.1, process_rel_std: float = 0.0, sigma_alpha: float = 0.1,
-                       first_pass_stride: int = 4, history: list | None = None) -> TriadCalibration:
+                       first_pass_stride: int = 4, history: list | None = None,
+                       weight_by_duration: bool = True) -> TriadCalibration:
     """Gyro H by the UKF of eqs. 44-45 over the moves, repeated in passes until H stops changing.
 
     State: vec(H) (row-major) divided by s = |det H0|^(1/3), so the filter works on numbers of order 1.
@@ -245,15 +246,16 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
     ukf.R = np.eye(3) * noise_rad ** 2
     full = _singles(ms)
     coarse = full if first_pass_stride <= 1 else _singles(MoveSet.build(decimated(moves, first_pass_stride), B))
+    w = move_weights(ms) if weight_by_duration else np.ones(len(ms.steps))
     passes, converged, prior = 0, False, prior_rel_std
     for passes in range(1, max_passes + 1):
         ukf.x = H.ravel() / s
         ukf.P = np.eye(9) * prior ** 2
-        for one in (coarse if passes == 1 else full):
-            _ukf_move_update(ukf, one, s)
+        for one, wi in zip(coarse if passes == 1 else full, w):
+            _ukf_move_update(ukf, one, s, noise_rad ** 2 * wi)
         H_new = ukf.x.reshape(3, 3) * s
         change = float(np.linalg.norm(H_new - H) / np.linalg.norm(H_new))
-        spread = float(np.sqrt(np.max(np.diag(ukf.P)) * _variance_factor(H_new, ms, noise_rad)))
+        spread = float(np.sqrt(np.max(np.diag(ukf.P)) * _variance_factor(H_new, ms, noise_rad, w)))
         prior = min(prior_rel_std, max(3.0 * change, 10.0 * spread, 1e-6))
         H = H_new
         if history is not None:
@@ -261,7 +263,7 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
         if change < tol and passes >= min_passes:
             converged = True
             break
-    variance_factor = _variance_factor(H, ms, noise_rad)
+    variance_factor = _variance_factor(H, ms, noise_rad, w)
     return gyro_result(H, B, ms, ukf.P * s * s * variance_factor, "gyro-ukf", passes, converged,
                        {"noise_rad": float(noise_rad), "variance_factor": variance_factor, "moves": len(ms.steps),
                         "last_change": change})
@@ -271,12 +273,21 @@ def _singles(ms: MoveSet) -> list[MoveSet]:
     return [ms.subset(i) for i in range(len(ms.steps))]
 
 
-def _variance_factor(H: np.ndarray, ms: MoveSet, noise_rad: float) -> float:
-    r = rotation_residuals(H, ms).ravel()
+def move_weights(ms: MoveSet) -> np.ndarray:
+    """Relative misfit variance of each move: white rate noise integrates to an angle random walk whose
+    variance grows with the move's duration, so a long move's rotation is trusted less (weighted least
+    squares; equal weights over-count the noisiest moves when move lengths differ)."""
+    T = ms.h.sum(axis=1)
+    return T / T.mean()
+
+
+def _variance_factor(H: np.ndarray, ms: MoveSet, noise_rad: float, w: np.ndarray | None = None) -> float:
+    r = rotation_residuals(H, ms)
+    r = (r / np.sqrt(w)[:, None] if w is not None else r).ravel()
     return float(r @ r) / max(r.size - 9, 1) / noise_rad ** 2
 
 
-def _ukf_move_update(ukf: UnscentedKalmanFilter, one: MoveSet, s: float) -> None:
+def _ukf_move_update(ukf: UnscentedKalmanFilter, one: MoveSet, s: float, r_var: float) -> None:
     """Predict, then update with one move; h(x) of all sigma points comes from one batched integration.
 
     filterpy's update() calls hx once per row of `sigmas_f`, in order; handing it the precomputed
@@ -288,7 +299,7 @@ def _ukf_move_update(ukf: UnscentedKalmanFilter, one: MoveSet, s: float) -> None
     ukf.compute_process_sigmas(1.0)
     z_sigma = rotation_residuals(ukf.sigmas_f.reshape(-1, 3, 3) * s, one)[:, 0, :]
     rows = iter(z_sigma)
-    ukf.update(np.zeros(3), hx=lambda _x: next(rows))
+    ukf.update(np.zeros(3), R=np.eye(3) * r_var, hx=lambda _x: next(rows))
     if next(rows, None) is not None:
         raise RuntimeError("filterpy's update() did not consume one measurement per sigma point")
     ukf.P = 0.5 * (ukf.P + ukf.P.T)
