@@ -7,8 +7,8 @@ Rows of the table, all on the same trajectory record:
 * UKF with the sensor-frame-only ellipsoid for accel/mag (gyro: ours, so the row isolates what a
   symmetric H loses: the mounting rotation),
 * UKF with nominal datasheet scales (the drivers' `settings()["scale"]`, zero bias),
-* Madgwick, Mahony and EKF from `ahrs` on our calibrated data, as peers of the filter (the EKF twice:
-  given our noise model, and with the package's default noise).
+* Madgwick, Mahony and EKF from `ahrs` on our calibrated data, as peers of the filter (the EKF three
+  times: given our noise model, the same fed the UKF's zero-rate steps, and with the package's defaults).
 """
 
 from __future__ import annotations
@@ -148,7 +148,8 @@ def write_outputs(out_dir: Path, result: ValidationResult, session: SessionData,
           + ", ".join(f"{k} {1e3 * v:.2f} ms" for k, v in f["latency_s"].items()),
           f"- accel updates {f['accel_updates']} (rejected {f['accel_rejected']}); magnetometer samples "
           f"{f['mag_samples']}, used {f['mag_updates']}, rejected for |m| {f['mag_rejected_norm']}, "
-          f"for dip {f['mag_rejected_dip']}"]
+          f"for dip {f['mag_rejected_dip']}",
+          f"- zero-rate steps (the gyro showed only noise; attitude kept): {f.get('still_steps', 0)}"]
     if result.notes:
         md += ["", "## Notes", ""] + [f"- {n}" for n in result.notes]
     if files:

@@ -4,10 +4,10 @@ reference (the paper's Table III). See `ukf.py` for the filter, `evaluate.py` fo
 `smoother.py` for the non-causal bound."""
 
 from rig.attitude.compare import AXES, Comparison, compare, error_rpy_deg, estimate_alignment, rpy_deg
-from rig.attitude.measurements import Gates
+from rig.attitude.measurements import Gates, StillDetector
 from rig.attitude.noise import SensorNoise
 from rig.attitude.smoother import smooth_attitude
 from rig.attitude.ukf import AttitudeEstimate, UKFSettings, estimate_attitude
 
-__all__ = ["AXES", "AttitudeEstimate", "Comparison", "Gates", "SensorNoise", "UKFSettings", "compare",
+__all__ = ["AXES", "AttitudeEstimate", "Comparison", "Gates", "SensorNoise", "StillDetector", "UKFSettings", "compare",
            "error_rpy_deg", "estimate_alignment", "estimate_attitude", "rpy_deg", "smooth_attitude"]

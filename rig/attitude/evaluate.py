@@ -126,7 +126,7 @@ def peer_rows(session: SessionData, aligned: tuple, calibration: str, rows: Sess
     out = []
     for name in peers:
         q = run_peer(name, session.t, gyro, u["accel"], u["mag"], noise=est.noise, gravity=session.gravity,
-                     field_uT=est.field_uT, dip_deg=est.dip_deg, q0_enu=est.q[0])
+                     field_uT=est.field_uT, dip_deg=est.dip_deg, q0_enu=est.q[0], still=est.still)
         comp = compare(f"{name} (ahrs), {calibration}", q, session.q_ref, rows.align, rows.evaluate)
         out.append(Row(comp.name, name, calibration, comp, {"latency_s": delays, "gyro_read_shift_s": -half_period}))
     return out

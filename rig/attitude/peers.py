@@ -19,7 +19,7 @@ import numpy as np
 
 from rig.attitude.noise import SensorNoise
 
-PEERS = ("madgwick", "mahony", "ekf", "ekf-defaults")
+PEERS = ("madgwick", "mahony", "ekf", "ekf-still", "ekf-defaults")
 
 
 def fill_rows(t: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -32,17 +32,24 @@ def fill_rows(t: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def run_peer(name: str, t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray, *,
-             noise: SensorNoise, gravity: float, field_uT: float, dip_deg: float, q0_enu: np.ndarray) -> np.ndarray:
-    """Quaternions (n, 4), fixture -> the peer's navigation frame."""
+             noise: SensorNoise, gravity: float, field_uT: float, dip_deg: float, q0_enu: np.ndarray,
+             still: np.ndarray | None = None) -> np.ndarray:
+    """Quaternions (n, 4), fixture -> the peer's navigation frame.
+
+    still: (n,) steps the UKF took as still; 'ekf-still' gets a zero rate there (the ahrs EKF with the
+    UKF's zero-rate detection as a preprocessing step: a stronger peer than the plain 'ekf').
+    """
     from ahrs.filters import EKF, Madgwick, Mahony
 
     gyro, accel, mag = (fill_rows(t, np.asarray(x, dtype=float)) for x in (gyro, accel, mag))
+    if name == "ekf-still" and still is not None:
+        gyro = np.where(np.asarray(still, bool)[:, None], 0.0, gyro)
     freq = 1.0 / float(np.median(np.diff(t)))
     if name == "madgwick":
         return Madgwick(gyr=gyro, acc=accel, mag=mag, frequency=freq).Q
     if name == "mahony":
         return Mahony(gyr=gyro, acc=accel, mag=mag, frequency=freq, q0=np.asarray(q0_enu, dtype=float)).Q
-    if name in ("ekf", "ekf-defaults"):
+    if name in ("ekf", "ekf-still", "ekf-defaults"):
         # 'ekf': variances of the unit vectors it compares from the same noise the UKF is given;
         # 'ekf-defaults': the package's own noise settings, as a user gets it out of the box
         kw = {} if name == "ekf-defaults" else {"noises": [noise.gyro_rad_s ** 2, (noise.accel_mps2 / gravity) ** 2,

@@ -10,10 +10,13 @@ import click
 MAG_CHOICE = click.Choice(["vector", "heading"])
 
 
-def _settings(mag_measurement: str):
+def _settings(mag_measurement: str, no_still_detection: bool = False):
     from rig.attitude.ukf import UKFSettings
 
-    return UKFSettings(mag_measurement=mag_measurement)
+    return UKFSettings(mag_measurement=mag_measurement, still=None if no_still_detection else UKFSettings().still)
+
+
+NO_STILL_HELP = "Integrate the gyro on every step (the paper's filter) instead of taking still steps as zero rate."
 
 
 def _fail(e: Exception) -> click.ClickException:
@@ -30,7 +33,8 @@ def _fail(e: Exception) -> click.ClickException:
 @click.option("--mag-measurement", type=MAG_CHOICE, default="vector", show_default=True,
               help="Magnetometer as the field direction (vector) or as heading only (the paper's).")
 @click.option("--no-peers", is_flag=True, help="Skip the ahrs Madgwick/Mahony/EKF peers.")
-def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers):
+@click.option("--no-still-detection", is_flag=True, help=NO_STILL_HELP)
+def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers, no_still_detection):
     """Run the quaternion UKF on an interchange session with motion and compare with its reference."""
     from procedures.validation import nominal_calibration, table3_markdown, validate_session, write_outputs
     from rig.attitude.peers import PEERS
@@ -50,7 +54,7 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers)
         if {"gyro", "accel"} <= set(nominal):
             calibrations["nominal datasheet"] = nominal
         result = validate_session(session, calibrations, peers=() if no_peers else PEERS,
-                                  settings=_settings(mag_measurement))
+                                  settings=_settings(mag_measurement, no_still_detection))
     except (RigError, ValueError) as e:
         raise _fail(e) from None
     extra = {"session": str(session_dir), "calibration": str(calibration), "mag_measurement": mag_measurement}
@@ -77,7 +81,8 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers)
 @click.option("--mag-measurement", type=MAG_CHOICE, default="vector", show_default=True)
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output folder.")
 @click.option("--no-plots", is_flag=True)
-def validate(sim, config_path, seed, calibration, method, mag_measurement, out, no_plots):
+@click.option("--no-still-detection", is_flag=True, help=NO_STILL_HELP)
+def validate(sim, config_path, seed, calibration, method, mag_measurement, out, no_plots, no_still_detection):
     """Calibrate, run the dynamic trajectory on the same unit, and write the Table III attitude report."""
     from procedures.validation import validate_on_rig
     from rig.config import load_config
@@ -88,6 +93,6 @@ def validate(sim, config_path, seed, calibration, method, mag_measurement, out, 
     try:
         config = load_config(config_path)
         validate_on_rig(out, config, sim=sim, seed=seed, calibration=calibration, method=method,
-                        plots=not no_plots, settings=_settings(mag_measurement), echo=click.echo)
+                        plots=not no_plots, settings=_settings(mag_measurement, no_still_detection), echo=click.echo)
     except (RigError, ValueError) as e:
         raise _fail(e) from None

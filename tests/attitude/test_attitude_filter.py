@@ -7,7 +7,7 @@ import pytest
 from attitude_synth import G, make_motion, rms_error_deg
 
 from rig.attitude.compare import rpy_deg
-from rig.attitude.measurements import Gates
+from rig.attitude.measurements import Gates, StillDetector
 from rig.attitude.reference import estimate_attitude_filterpy
 from rig.attitude.smoother import smooth_attitude
 from rig.attitude.ukf import UKFSettings, estimate_attitude
@@ -159,3 +159,30 @@ def test_the_smoother_uses_the_future_samples_and_knows_its_error():
 def test_the_smoother_refuses_the_heading_measurement(motion):
     with pytest.raises(ValueError, match="vector"):
         smooth_attitude(motion.t, motion.gyro, motion.accel, motion.mag, settings=UKFSettings(mag_measurement="heading"))
+
+
+def test_the_still_detector_finds_the_still_start_and_not_a_reversal():
+    rng = np.random.default_rng(3)
+    t = np.arange(400) * 0.01
+    rate = np.where(t < 1.0, 0.0, np.where(t < 2.5, 1.0, -1.0))   # still, then a reversal through zero
+    rate[(t >= 2.5) & (t < 2.52)] = 0.0                              # two steps at zero in the reversal
+    gyro = np.column_stack([rate, np.zeros_like(t), np.zeros_like(t)]) + rng.normal(0.0, 0.004, (len(t), 3))
+    still = StillDetector().mask(gyro, 0.004)
+    assert still[10:100].mean() > 0.95          # the still start, after the detector's 10 steps
+    assert not still[:9].any()                  # causal: not before 10 steps of evidence
+    assert not still[101:].any()                # motion, and the reversal's two zero-rate steps
+
+
+def test_zero_rate_steps_hold_the_attitude_and_keep_the_covariance_honest(motion):
+    paper = _run(motion, still=None)
+    ours = _run(motion)
+    hold = motion.t < 2.0
+    assert ours.counts["still_steps"] > 150 and paper.counts["still_steps"] == 0
+    assert np.all(ours.std_deg[150:199, :2] < paper.std_deg[150:199, :2])   # it averages the hold down
+    tilt = [rms_error_deg(motion.R, e.q, hold)[:2].max() for e in (ours, paper)]
+    assert tilt[0] < tilt[1]
+
+
+def test_the_still_detector_refuses_nonsense():
+    with pytest.raises(ValueError, match="StillDetector"):
+        StillDetector(samples=0)

@@ -45,19 +45,41 @@ def test_ours_against_the_ahrs_filters_on_the_same_data(validation):
     _, result, _ = validation
     ours = _total(result.ours())
     peers = {r.filter: _total(r) for r in result.rows if r.filter != "ukf"}
-    assert set(peers) == {"madgwick", "mahony", "ekf", "ekf-defaults"}
+    assert set(peers) == {"madgwick", "mahony", "ekf", "ekf-still", "ekf-defaults"}
     assert ours < 0.3 * peers["madgwick"] and ours < 0.3 * peers["mahony"]
-    # Given our noise model the ahrs EKF is the same estimator as the UKF at this noise level (the unscented
-    # transform is the linearisation there, test_attitude_filter.py): it makes the same errors, and over ten
-    # seeds neither is better (benchmarks/bench_attitude.py; per seed within +-15 %). So that is asserted,
-    # not an order that flips with the seed.
+    # Off the holds the ahrs EKF given our noise is the same estimator as the UKF (the unscented transform is
+    # the linearisation at this noise level, test_attitude_filter.py), so it makes the same errors there ...
     ekf = next(r for r in result.rows if r.filter == "ekf")
     rows = result.session_rows.evaluate
+    still = result.estimates[result.ours().calibration].still
+    moving = rows[~still[rows]]
+    assert 0 < len(moving) < len(rows)
     for i, axis in enumerate(AXES):
-        corr = np.corrcoef(result.ours().comparison.err_deg[rows, i], ekf.comparison.err_deg[rows, i])[0, 1]
-        assert corr > 0.9, (axis, corr)
-    assert 0.8 < ours / peers["ekf"] < 1.25
-    assert 0.5 < ours / peers["ekf-defaults"] < 2.0
+        corr = np.corrcoef(result.ours().comparison.err_deg[moving, i], ekf.comparison.err_deg[moving, i])[0, 1]
+        assert corr > 0.8, (axis, corr)
+    # ... and the UKF's zero-rate steps on the holds are what put it ahead (bench_attitude.py: ten seeds)
+    assert ours < peers["ekf"]
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_ukf_beats_the_tuned_ahrs_ekf_on_other_units(seed, tmp_path):
+    result, _ = validate_on_rig(tmp_path, load_config(), sim=True, seed=seed, plots=False, echo=lambda *_: None)
+    ekf = next(r for r in result.rows if r.filter == "ekf")
+    assert _total(result.ours()) < _total(ekf)
+
+
+def test_without_zero_rate_steps_the_ukf_is_the_papers_filter(validation, tmp_path):
+    from rig.commands.attitude import validate
+
+    out, result, doc = validation
+    res = CliRunner().invoke(validate, ["--sim", "--seed", "0", "--calibration", str(out / "calibration" /
+                                        "calibration.json"), "--no-plots", "--no-still-detection",
+                                        "--out", str(tmp_path / "v")])
+    assert res.exit_code == 0, res.output
+    got = json.loads((tmp_path / "v" / "validation.json").read_text())
+    assert got["filter"]["still_steps"] == 0 and doc["filter"]["still_steps"] > 500
+    paper = float(np.sqrt(sum(v * v for v in got["rms_deg"].values())))
+    assert _total(result.ours()) < 0.95 * paper
 
 
 def test_the_frame_alignment_is_the_declination_and_the_latencies_are_found(validation):
@@ -79,7 +101,7 @@ def test_outputs_are_written(validation):
     assert "Table III" in report and result.ours().label in report
     doc = json.loads((out / "validation.json").read_text())
     assert set(doc["rms_deg"]) == set(AXES)
-    assert len(doc["table"]) == len(result.rows) == 8
+    assert len(doc["table"]) == len(result.rows) == 9
     for name in doc["plots"]:
         assert (out / name).stat().st_size > 10_000
 
