@@ -20,6 +20,7 @@ from scipy.spatial.transform import Rotation
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from scipy.optimize import minimize_scalar
 
+from rig.calibration.gyro_start import start_candidates
 from rig.calibration.integrate import cross, product_of_exps
 from rig.calibration.result import TriadCalibration
 from rig.rotations import quat_from_matrix
@@ -143,12 +144,12 @@ def rotation_residuals(H: np.ndarray, ms: MoveSet) -> np.ndarray:
     return v * scale[..., None]
 
 
-def nominal_scale(moves: list[MoveStream], B: np.ndarray, *, min_rate_dps: float = 1.0,
-                  max_rate_dps: float = 3000.0, stride: int = 4) -> float:
-    """A scalar s so that H0 = s I integrates closest to the known rotations: the filters' start point.
+def nominal_scale(moves: list[MoveStream], B: np.ndarray, *, mounting: np.ndarray | None = None,
+                  min_rate_dps: float = 1.0, max_rate_dps: float = 3000.0, stride: int = 4) -> float:
+    """A scalar s so that H0 = s Q (Q = `mounting`, default I) integrates closest to the known rotations.
 
-    Used when no nominal H0 is given. (A per-axis least squares of integrated angles is not used: the
-    rotation vector of a move wraps at pi and two-axis moves do not turn about a fixed axis.)
+    Used when no nominal H0 is given. (A per-axis least squares of integrated angles is not enough on its
+    own: the rotation vector of a move wraps at pi and two-axis moves do not turn about a fixed axis.)
 
     The cost over s has one basin per winding of each move, so a log grid (5 % steps, coarse
     enough to be cheap, fine enough for basins about +-50 % wide) covering peak body rates of
@@ -156,24 +157,55 @@ def nominal_scale(moves: list[MoveStream], B: np.ndarray, *, min_rate_dps: float
     sample is enough for a start point.
     """
     ms = MoveSet.build(decimated(moves, stride), B)
+    Q = np.eye(3) if mounting is None else np.asarray(mounting, dtype=float)
     mean_rates = np.linalg.norm(ms.S, axis=-1) / np.where(ms.h > 0, ms.h, np.inf)
     peak = float(mean_rates.max())
     if not np.isfinite(peak) or peak <= 0:
         raise ValueError("gyro calibration: the moves show no rotation (raw rates equal the bias)")
     lo, hi = np.radians(min_rate_dps) / peak, np.radians(max_rate_dps) / peak
-    cost = lambda s: _scalar_cost(s, ms)  # noqa: E731
+    cost = lambda s: _scalar_cost(s, ms, Q)  # noqa: E731
     # A move's net angle cannot exceed s times its raw path length, so s >= angle / path for every move;
     # the largest of these bounds is close to s when moves turn about nearly fixed axes: search near it
     # first, and over the whole range only if the best lies at the edge of that bracket.
-    path = np.linalg.norm(ms.S, axis=-1).sum(axis=1)
-    angle = np.linalg.norm(Rotation.from_quat(ms.q_known, scalar_first=True).as_rotvec(), axis=-1)
-    bound = float(np.max(angle / np.where(path > 0, path, np.inf)))
+    bound = path_bound(ms)
     if np.isfinite(bound) and lo < bound < hi:
         a, b = bound * 0.8, min(bound * 2.5, hi)      # anisotropic scales let angle/path exceed s a little
         s = scalar_search(cost, a, b)
         if a * 1.06 < s < b / 1.06:
             return s
     return scalar_search(cost, lo, hi)
+
+
+def path_bound(ms: MoveSet) -> float:
+    """max over moves of (net angle / raw path length): a lower bound of the scale, independent of mounting."""
+    path = np.linalg.norm(ms.S, axis=-1).sum(axis=1)
+    angle = np.linalg.norm(Rotation.from_quat(ms.q_known, scalar_first=True).as_rotvec(), axis=-1)
+    return float(np.max(angle / np.where(path > 0, path, np.inf)))
+
+
+CUBE_ROTATIONS = Rotation.create_group("O").as_matrix()   # the 24 ways to mount a board square to the fixture
+
+
+def square_mounting(ms: MoveSet) -> np.ndarray:
+    """The cube rotation (sensor axes along +-fixture axes) that fits the moves best at the path-bound scale.
+
+    Any mounting is within ~63 deg of one of them, inside the fits' basin (~60 deg) or close to it; the
+    linear starts of gyro_start.py cover the rest."""
+    s = path_bound(ms)
+    if not np.isfinite(s) or s <= 0:
+        return np.eye(3)
+    r = rotation_residuals(s * CUBE_ROTATIONS, ms)
+    return CUBE_ROTATIONS[int(np.argmin(np.sum(r * r, axis=(-1, -2))))]
+
+
+def initial_H(moves: list[MoveStream], B: np.ndarray, stride: int = 4) -> np.ndarray:
+    """The fits' start: `s Q` with Q the best square mounting, or a linear start that carries any mounting
+    (gyro_start.py), whichever integrates closest to the known rotations over all moves."""
+    ms = MoveSet.build(decimated(moves, stride), B)
+    Q = square_mounting(ms)
+    candidates = [nominal_scale(moves, B, mounting=Q, stride=stride) * Q] + start_candidates(moves, B)
+    r = rotation_residuals(np.array(candidates), ms)
+    return candidates[int(np.argmin(np.sum(r * r, axis=(-1, -2))))]
 
 
 def decimated(moves: list[MoveStream], stride: int) -> list[MoveStream]:
@@ -193,8 +225,8 @@ def scalar_search(cost_batch, lo: float, hi: float, step: float = 1.05) -> float
     return float(res.x) if res.fun <= costs[i] else float(grid[i])
 
 
-def _scalar_cost(s: np.ndarray, ms: MoveSet) -> np.ndarray:
-    H = np.asarray(s, dtype=float)[:, None, None] * np.eye(3)
+def _scalar_cost(s: np.ndarray, ms: MoveSet, Q: np.ndarray) -> np.ndarray:
+    H = np.asarray(s, dtype=float)[:, None, None] * Q
     r = rotation_residuals(H, ms)
     return np.sum(r * r, axis=(-1, -2))
 
@@ -231,7 +263,7 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
     """
     ms = MoveSet.build(moves, B)
     if H0 is None:
-        H0 = nominal_scale(moves, B) * np.eye(3)
+        H0 = initial_H(moves, B)
     H = np.asarray(H0, dtype=float).reshape(3, 3)
     s = abs(np.linalg.det(H)) ** (1.0 / 3.0)
     if not s > 0:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from rig.calibration.gyro import MoveSet, gyro_result, nominal_scale, rotation_residuals
+from rig.calibration.gyro import MoveSet, gyro_result, initial_H, rotation_residuals
 from rig.calibration.result import TriadCalibration
 from rig.session_data import MoveStream
 
@@ -23,7 +23,7 @@ def calibrate_gyro_trust_region(moves: list[MoveStream], B: np.ndarray, *, H0: n
     """
     ms = MoveSet.build(moves, B)
     if H0 is None:
-        H0 = nominal_scale(moves, B) * np.eye(3)
+        H0 = initial_H(moves, B)
     H0 = np.asarray(H0, dtype=float).reshape(3, 3)
     s = abs(np.linalg.det(H0)) ** (1.0 / 3.0)
     if not s > 0:
