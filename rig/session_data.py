@@ -30,6 +30,10 @@ class HoldStats:
     vsupply_v: np.ndarray | None = None   # (k,)
 
 
+SETTLE_NOISE_FACTOR = 6.0
+SETTLE_FLOOR_RAD = float(np.radians(0.005))
+
+
 @dataclass
 class MoveStream:
     """Raw samples of one sensor from the last sample of hold j to the first of hold j+1."""
@@ -95,6 +99,8 @@ class SessionData:
     def hold_rows(self, settle_s: float = 0.0) -> list[tuple[int, np.ndarray]]:
         """(step, row indices) of each hold in time order, dropping `settle_s` at its start.
 
+        `settle_s` is the least that is dropped: where the reference still moves after it, the rows up to its
+        last excursion in the hold's first half are dropped too (see `_settled`).
         A hold visited twice (a repeated hold after a bump) counts once: its last visit.
         """
         rows = np.flatnonzero(~self.is_move)
@@ -104,10 +110,32 @@ class SessionData:
         out: dict[int, np.ndarray] = {}
         for seg in np.split(rows, breaks):
             if settle_s > 0:
-                seg = seg[self.t[seg] >= self.t[seg[0]] + settle_s]
+                seg = self._settled(seg[self.t[seg] >= self.t[seg[0]] + settle_s])
             if seg.size:
                 out[int(self.step[seg[0]])] = seg
         return sorted(out.items(), key=lambda kv: self.t[kv[1][0]])
+
+    def _settled(self, seg: np.ndarray) -> np.ndarray:
+        """The hold's rows from where its reference has come to rest.
+
+        A table that rings longer than the fixed settling time would put motion into the hold means and cut
+        the moves short. Rest is judged against the hold's second half: a row of the first half is still
+        moving when it is further from that half's mean orientation than SETTLE_NOISE_FACTOR times the
+        half's own RMS scatter (encoder steps or tracker noise), or SETTLE_FLOOR_RAD if the reference is
+        quiet. Excursions in the second half are left to the motion checks of the pipeline.
+        """
+        n = len(seg)
+        if n < 8:
+            return seg
+        q = self.q_ref[seg]
+        tail = q[n // 2:]
+        tail = np.where((tail @ tail[-1])[:, None] < 0, -tail, tail)
+        qm = tail.mean(axis=0)
+        qm /= np.linalg.norm(qm)
+        angle = 2 * np.arccos(np.abs(q @ qm).clip(max=1.0))
+        limit = max(SETTLE_NOISE_FACTOR * float(np.sqrt(np.mean(angle[n // 2:] ** 2))), SETTLE_FLOOR_RAD)
+        moving = np.flatnonzero(angle[: n // 2] > limit)
+        return seg[moving[-1] + 1:] if moving.size else seg
 
     def holds(self, sensor: str, settle_s: float = 0.0) -> HoldStats:
         y = self.raw[sensor]

@@ -85,6 +85,31 @@ def test_settling_is_dropped(base):
     assert not any("settling" in w for w in raw.warnings)
 
 
+def _ring_reference(session, seconds: float, amplitude_deg: float) -> None:
+    """The reference (and nothing else) turns about fixture x for `seconds` at the start of every hold."""
+    from rig.rotations import matrix_from_quat, quat_from_matrix, rot_x
+    for _, idx in session.hold_rows():
+        age = session.t[idx] - session.t[idx[0]]
+        ring = np.radians(amplitude_deg) * np.where(age < seconds, np.sin(2 * np.pi * 4 * age), 0.0)
+        R = matrix_from_quat(session.q_ref[idx]) @ rot_x(ring)
+        session.q_ref[idx] = quat_from_matrix(R)
+
+
+def test_settling_follows_the_reference_beyond_the_fixed_time(base):
+    session, _ = fresh(base)
+    _ring_reference(session, seconds=0.8, amplitude_deg=0.5)
+    starts = {j: session.t[idx[0]] for j, idx in session.hold_rows(0.5)}
+    firsts = {j: session.t[idx[0]] for j, idx in session.hold_rows()}
+    lags = np.array([starts[j] - firsts[j] for j in starts])
+    assert lags.min() >= 0.7 and lags.max() <= 0.85
+
+
+def test_quiet_reference_keeps_the_fixed_settling_time(base):
+    session, _ = fresh(base)
+    lags = [session.t[a[0]] - session.t[b[0]] for (_, a), (_, b) in zip(session.hold_rows(0.5), session.hold_rows())]
+    assert max(lags) < 0.5 + 0.02
+
+
 def test_too_few_orientations():
     session, _ = build_session(seed=2, hold_s=1.0, schedule_deg=np.array(
         [[0, 0], [45, 67], [90, 134], [135, 201], [180, 268], [225, 335], [270, 42], [315, 109]]))
