@@ -23,7 +23,8 @@ from rig.errors import CalibrationError
 from rig.session_data import SENSOR_UNITS, HoldStats, MoveStream, SessionData
 
 METHODS = ("two-step", "joint")
-MIN_HOLDS = 9                 # 9 parameters of the ellipsoid (twostep.MIN_ORIENTATIONS)
+MIN_HOLDS = {"two-step": 9,   # 9 parameters of the ellipsoid (twostep.MIN_ORIENTATIONS)
+             "joint": 6}      # 14 parameters from 3 equations per hold (joint.MIN_ORIENTATIONS)
 MIN_GYRO_MOVES = 3
 # A hold whose noise (norm of the per-axis std) exceeds this multiple of the median hold's, plus
 # one count for quantised, nearly noiseless sensors, was not still.
@@ -280,10 +281,13 @@ def _calibrate_vector(session: SessionData, name: str, h: HoldStats, method: str
         norm = float(session.field_uT)
     else:
         norm = float(session.gravity)
-    if len(h.step) < MIN_HOLDS:
-        raise CalibrationError(f"{name}: {len(h.step)} usable orientations, need at least {MIN_HOLDS}")
+    need = MIN_HOLDS.get(method, max(MIN_HOLDS.values()))
+    if len(h.step) < need:
+        more = " (the joint method needs 6)" if method == "two-step" and len(h.step) >= MIN_HOLDS["joint"] else ""
+        raise CalibrationError(f"{name}: {len(h.step)} usable orientations, need at least {need} for the "
+                               f"{method} method{more}")
     if name == "accel":
-        report = _solver("observability", "check_schedule")(h.R)
+        report = _solver("observability", "check_schedule")(h.R, min_orientations=need)
         if not report.ok:
             raise CalibrationError(f"accel: the hold schedule cannot calibrate: {report.message}")
     _solver("observability", "require_spread")(h.mean, name)

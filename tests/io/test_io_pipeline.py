@@ -110,10 +110,25 @@ def test_quiet_reference_keeps_the_fixed_settling_time(base):
     assert max(lags) < 0.5 + 0.02
 
 
-def test_too_few_orientations():
-    session, _ = build_session(seed=2, hold_s=1.0, schedule_deg=np.array(
-        [[0, 0], [45, 67], [90, 134], [135, 201], [180, 268], [225, 335], [270, 42], [315, 109]]))
-    with pytest.raises(CalibrationError, match="8 usable orientations, need at least 9"):
+EIGHT = np.array([[0, 0], [45, 67], [90, 134], [135, 201], [180, 268], [225, 335], [270, 42], [315, 109]])
+
+
+def test_too_few_orientations_for_the_two_step_method():
+    session, _ = build_session(seed=2, hold_s=1.0, schedule_deg=EIGHT)
+    with pytest.raises(CalibrationError, match="8 usable orientations, need at least 9 for the two-step method "
+                                               r"\(the joint method needs 6\)"):
+        calibrate_session(session, method="two-step")
+
+
+def test_joint_method_calibrates_eight_orientations(base):
+    session, truth = build_session(seed=2, hold_s=2.0, schedule_deg=EIGHT)
+    result = calibrate_session(session)
+    assert_matches_truth(result.sensors, truth, ("accel", "mag"))
+
+
+def test_too_few_orientations_for_any_method():
+    session, _ = build_session(seed=2, hold_s=1.0, schedule_deg=EIGHT[:5])
+    with pytest.raises(CalibrationError, match="5 usable orientations, need at least 6 for the joint method"):
         calibrate_session(session)
 
 
