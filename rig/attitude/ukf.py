@@ -171,8 +171,12 @@ def initial_covariance(settings: UKFSettings, R0: np.ndarray, noise: SensorNoise
 
     The initial attitude averages the still interval, so its tilt variance is the per-sample one over
     the accelerometer samples, its heading variance the per-sample heading one over the magnetometer
-    samples (no magnetometer: heading unknown, 90 deg). A loose P0 would let the first single sample
-    pull the estimate away from that average.
+    samples. A loose P0 would let the first single sample pull the estimate away from that average.
+    No magnetometer: the heading is unobservable and the filter's heading is, by definition, the one it
+    starts with (the validation's frame alignment removes it), so it gets the tilt's variance. A wide
+    prior there (90 deg was used) puts the sigma points ~150 deg apart about the vertical, and the
+    unscented transform's nonlinearity then turned accelerometer updates in motion into 10-20 deg
+    attitude errors.
     """
     floor = math.radians(settings.min_initial_std_deg) ** 2
     if settings.initial_std_deg is not None:
@@ -180,7 +184,7 @@ def initial_covariance(settings: UKFSettings, R0: np.ndarray, noise: SensorNoise
     n_acc = max(int(prep.accel_ok[rows].sum()), 1)
     tilt = (noise.accel_mps2 / gravity) ** 2 / n_acc
     mag_rows = rows[prep.mag_ok[rows]]
-    heading = float(np.mean(prep.heading_var[mag_rows])) / len(mag_rows) if len(mag_rows) else math.radians(90.0) ** 2
+    heading = float(np.mean(prep.heading_var[mag_rows])) / len(mag_rows) if len(mag_rows) else tilt
     nav = np.diag([max(tilt, floor), max(tilt, floor), max(heading, floor)])
     return R0.T @ nav @ R0
 

@@ -70,6 +70,16 @@ def test_without_magnetometer_tilt_is_kept(motion):
     assert est.counts["mag_updates"] == 0
 
 
+def test_without_magnetometer_heading_holds_through_motion(motion):
+    # the heading is unobservable; aligned once at the start, the whole attitude must stay right: a wide
+    # heading prior once turned accelerometer updates in motion into 10-20 deg errors
+    est = _run(motion, mag=None)
+    R_est = matrix_from_quat(est.q)
+    R_world = (motion.R[0] @ R_est[0].T) @ R_est
+    err = rpy_deg(np.einsum("nji,njk->nik", motion.R, R_world))
+    assert np.abs(err).max() < 0.2, np.abs(err).max(axis=0)
+
+
 def _disturbed(motion, window, field_fn):
     """Magnetometer samples in `window` (s) replaced by field_fn(true body field)."""
     mag = motion.mag.copy()
