@@ -103,6 +103,8 @@ def validate_session(session: SessionData, calibrations: dict[str, dict[str, Tri
         result.estimates[label] = est
         if label == first and peers:
             result.rows += peer_rows(session, aligned, label, rows, est, peers)
+    if first not in result.estimates:
+        raise CalibrationError(f"{session.source}: the calibration under test cannot be evaluated: {result.notes[0]}")
     return result
 
 
