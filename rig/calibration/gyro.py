@@ -156,7 +156,12 @@ def nominal_scale(moves: list[MoveStream], B: np.ndarray, *, mounting: np.ndarra
     `min_rate_dps`..`max_rate_dps` is searched first and the best cell refined; every `stride`-th
     sample is enough for a start point.
     """
-    ms = MoveSet.build(decimated(moves, stride), B)
+    return scale_search(MoveSet.build(decimated(moves, stride), B), mounting, min_rate_dps, max_rate_dps)
+
+
+def scale_search(ms: MoveSet, mounting: np.ndarray | None = None, min_rate_dps: float = 1.0,
+                 max_rate_dps: float = 3000.0) -> float:
+    """nominal_scale on moves already reduced to a MoveSet."""
     Q = np.eye(3) if mounting is None else np.asarray(mounting, dtype=float)
     mean_rates = np.linalg.norm(ms.S, axis=-1) / np.where(ms.h > 0, ms.h, np.inf)
     peak = float(mean_rates.max())
@@ -203,7 +208,7 @@ def initial_H(moves: list[MoveStream], B: np.ndarray, stride: int = 4) -> np.nda
     (gyro_start.py), whichever integrates closest to the known rotations over all moves."""
     ms = MoveSet.build(decimated(moves, stride), B)
     Q = square_mounting(ms)
-    candidates = [nominal_scale(moves, B, mounting=Q, stride=stride) * Q] + start_candidates(moves, B)
+    candidates = [scale_search(ms, Q) * Q] + start_candidates(moves, B)
     r = rotation_residuals(np.array(candidates), ms)
     return candidates[int(np.argmin(np.sum(r * r, axis=(-1, -2))))]
 
