@@ -20,6 +20,7 @@ import numpy as np
 
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
+from rig.rotations import matrix_from_quat
 from rig.session_data import SENSOR_UNITS, HoldStats, MoveStream, SessionData
 
 METHODS = ("two-step", "joint")
@@ -71,6 +72,7 @@ def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: 
         else:
             sensors[name] = _calibrate_vector(session, name, holds[name], method, warnings)
         _check_result(name, sensors[name], _reference_norm(session, name), warnings)
+    _add_lever_arm(session, sensors, warnings)
     result = SessionCalibration(sensors, warnings, excluded_steps=excluded,
                                 holds_used={s: len(h.step) for s, h in holds.items()})
     result.summary = summary_lines(result)
@@ -143,7 +145,37 @@ def summary_lines(result: SessionCalibration) -> list[str]:
             label = "  H = " if i == 0 else "      "
             lines.append(label + _vec(row) + (f" +/- {_vec(H_std[i])}" if H_std is not None else "")
                          + (f"  {unit}/count" if i == 0 else ""))
+        if "lever_arm_m" in cal.extra:
+            verdict = "significant" if cal.extra.get("lever_arm_significant") else "not significant, not applied"
+            verdict += f", p = {cal.extra.get('lever_arm_p_value', float('nan')):.2g}"
+            lines.append(f"  lever arm r = {_vec(cal.extra['lever_arm_m'])} m +/- {_vec(cal.extra['lever_arm_std_m'])}"
+                         f" ({verdict}, {cal.extra.get('lever_arm_rows')} move rows)")
     return lines
+
+
+def _add_lever_arm(session: SessionData, sensors: dict[str, TriadCalibration], warnings: list[str]) -> None:
+    """Locate the accelerometer relative to the table axes from the move rows (rig.calibration.lever_arm),
+    stored under the accel calibration for the attitude filters. Sessions that do not sample the
+    accelerometer during moves are left as they are; a failed fit is a warning, never a failed calibration.
+    """
+    if "accel" not in sensors or "gyro" not in sensors:
+        return
+    accel = sensors["accel"].apply(session.raw["accel"])
+    rows = np.flatnonzero(session.is_move & np.isfinite(accel).all(axis=1))
+    if len(rows) == 0:
+        return
+    try:
+        gyro = sensors["gyro"].apply(session.raw["gyro"])
+        fit = _solver("lever_arm", "estimate_lever_arm")(session.t, accel, gyro, matrix_from_quat(session.q_ref),
+                                                         float(session.gravity), rows)
+    except (ValueError, np.linalg.LinAlgError) as e:
+        warnings.append(f"accel: no lever arm estimate ({e})")
+        return
+    sensors["accel"].extra.update({"lever_arm_m": [float(x) for x in fit.r_m],
+                                   "lever_arm_std_m": [float(x) for x in fit.std_m],
+                                   "lever_arm_significant": bool(fit.significant),
+                                   "lever_arm_p_value": float(fit.p_value),
+                                   "lever_arm_rows": int(fit.rows_used)})
 
 
 def _vec(v) -> str:

@@ -16,6 +16,7 @@ from rig.attitude.noise import SensorNoise
 from rig.attitude.peers import run_peer
 from rig.attitude.timing import carried_forward, delayed, estimate_gyro_delay, estimate_vector_delay
 from rig.attitude.ukf import AttitudeEstimate, UKFSettings, estimate_attitude
+from rig.calibration.lever_arm import compensate
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
@@ -68,14 +69,46 @@ def session_rows(session: SessionData, align_skip_s: float = ALIGN_SKIP_S) -> Se
     return SessionRows(still, align, evaluate)
 
 
-def calibrated_signals(session: SessionData, sensors: dict[str, TriadCalibration]) -> dict[str, np.ndarray]:
-    """`u = H (y - B)` per sensor, NaN rows kept; gyro and accel are required."""
+class CalibratedSignals(dict):
+    """sensor -> calibrated (n, 3) rows, remembering the lever arm (m) the accelerometer was compensated
+    for (None: not compensated), so every filter's report can say so."""
+
+    lever_arm_m: list[float] | None = None
+
+
+def calibrated_signals(session: SessionData, sensors: dict[str, TriadCalibration]) -> CalibratedSignals:
+    """`u = H (y - B)` per sensor, NaN rows kept; gyro and accel are required.
+
+    When the accel calibration carries a significant lever arm (`rig.calibration.lever_arm`), the
+    accelerometer is moved to the intersection of the table axes here, before any filter sees it: the
+    centripetal and tangential terms of the moves are part of the calibration, not tilt, and our UKF and
+    the ahrs peers all get the same compensated data.
+    """
     missing = [s for s in REQUIRED if s not in session.raw or s not in sensors]
     if missing:
         have = f"session has {sorted(session.raw)}, calibration has {sorted(sensors)}"
         raise CalibrationError(f"{session.source}: attitude needs {', '.join(missing)} in both session and "
                                f"calibration ({have})")
-    return {name: sensors[name].apply(session.raw[name]) for name in session.raw if name in sensors}
+    u = CalibratedSignals({name: sensors[name].apply(session.raw[name]) for name in session.raw if name in sensors})
+    r = significant_lever_arm(sensors["accel"])
+    if r is not None:
+        u["accel"] = compensate(session.t, u["accel"], u["gyro"], r)
+        u.lever_arm_m = [float(x) for x in r]
+    return u
+
+
+def significant_lever_arm(accel: TriadCalibration) -> np.ndarray | None:
+    """The accelerometer's lever arm (m) when its calibration found one significant, else None."""
+    if "lever_arm_m" not in accel.extra or not accel.extra.get("lever_arm_significant", False):
+        return None
+    value = accel.extra["lever_arm_m"]
+    try:
+        r = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        r = None
+    if r is None or r.shape != (3,) or not np.isfinite(r).all():
+        raise CalibrationError(f"calibration: sensors.accel.lever_arm_m must be 3 finite numbers (m), got {value!r}")
+    return r
 
 
 def aligned_signals(session: SessionData, sensors: dict[str, TriadCalibration],
@@ -107,16 +140,17 @@ def ukf_row(session: SessionData, sensors: dict[str, TriadCalibration], calibrat
     u, delays, noise = aligned
     est = run_ukf(session, u, rows, noise, settings)
     comp = compare(f"UKF, {calibration}", est.q, session.q_ref, rows.align, rows.evaluate)
-    return Row(comp.name, "ukf", calibration, comp, {"latency_s": delays, **est.summary()}), est, aligned
+    summary = {"latency_s": delays, "lever_arm_compensated_m": getattr(u, "lever_arm_m", None), **est.summary()}
+    return Row(comp.name, "ukf", calibration, comp, summary), est, aligned
 
 
 def peer_rows(session: SessionData, aligned: tuple, calibration: str, rows: SessionRows, est: AttitudeEstimate,
               peers: tuple[str, ...]) -> list[Row]:
     """The ahrs filters on the same calibrated data, noise and initial attitude as the UKF run `est`.
 
-    They get the same latency-corrected signals. They integrate the rate of sample k over the interval
-    (t_k-1, t_k] (rectangle rule), so their gyro is read at the interval's midpoint, half a period
-    earlier, which is the most favourable reading for them.
+    They get the same latency-corrected (and, with a significant lever arm, compensated) signals. They
+    integrate the rate of sample k over the interval (t_k-1, t_k] (rectangle rule), so their gyro is
+    read at the interval's midpoint, half a period earlier, which is the most favourable reading for them.
     """
     u, delays, _ = aligned
     if "mag" not in u:
@@ -128,5 +162,7 @@ def peer_rows(session: SessionData, aligned: tuple, calibration: str, rows: Sess
         q = run_peer(name, session.t, gyro, u["accel"], u["mag"], noise=est.noise, gravity=session.gravity,
                      field_uT=est.field_uT, dip_deg=est.dip_deg, q0_enu=est.q[0], still=est.still)
         comp = compare(f"{name} (ahrs), {calibration}", q, session.q_ref, rows.align, rows.evaluate)
-        out.append(Row(comp.name, name, calibration, comp, {"latency_s": delays, "gyro_read_shift_s": -half_period}))
+        summary = {"latency_s": delays, "gyro_read_shift_s": -half_period,
+                   "lever_arm_compensated_m": getattr(u, "lever_arm_m", None)}
+        out.append(Row(comp.name, name, calibration, comp, summary))
     return out
