@@ -151,7 +151,10 @@ def write_outputs(out_dir: Path, result: ValidationResult, session: SessionData,
           f"- accel updates {f['accel_updates']} (rejected {f['accel_rejected']}); magnetometer samples "
           f"{f['mag_samples']}, used {f['mag_updates']}, rejected for |m| {f['mag_rejected_norm']}, "
           f"for dip {f['mag_rejected_dip']}",
-          f"- zero-rate steps (the gyro showed only noise; attitude kept): {f.get('still_steps', 0)}"]
+          f"- zero-rate steps (the gyro showed only noise; attitude kept): {f.get('still_steps', 0)}",
+          "- accelerometer lever arm removed before every filter: "
+          + (f"r = {np.round(f['lever_arm_compensated_m'], 5).tolist()} m" if f.get("lever_arm_compensated_m")
+             else "none (not significant in the calibration, or not estimated)")]
     if result.notes:
         md += ["", "## Notes", ""] + [f"- {n}" for n in result.notes]
     if files:
