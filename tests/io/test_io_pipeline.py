@@ -113,6 +113,13 @@ def test_quiet_reference_keeps_the_fixed_settling_time(base):
 EIGHT = np.array([[0, 0], [45, 67], [90, 134], [135, 201], [180, 268], [225, 335], [270, 42], [315, 109]])
 
 
+def test_fast_moves_at_a_coarse_sample_rate_are_flagged(base):
+    session, _ = build_session(seed=5, hold_s=2.0, rate_hz=50.0, vmax_dps=200.0, accel_dps2=600.0)
+    assert any("deg between samples" in w for w in calibrate_session(session).warnings)
+    quiet, _ = fresh(base)
+    assert not any("deg between samples" in w for w in calibrate_session(quiet).warnings)
+
+
 def test_too_few_orientations_for_the_two_step_method():
     session, _ = build_session(seed=2, hold_s=1.0, schedule_deg=EIGHT)
     with pytest.raises(CalibrationError, match="8 usable orientations, need at least 9 for the two-step method "
