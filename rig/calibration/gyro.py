@@ -213,6 +213,15 @@ def initial_H(moves: list[MoveStream], B: np.ndarray, stride: int = 4) -> np.nda
     return candidates[int(np.argmin(np.sum(r * r, axis=(-1, -2))))]
 
 
+def start_and_scale(moves: list[MoveStream], B: np.ndarray, H0: np.ndarray | None, who: str) -> tuple[np.ndarray, float]:
+    """The fits' start H (initial_H unless given) and s = |det H|^(1/3), by which they work on O(1) numbers."""
+    H = np.asarray(initial_H(moves, B) if H0 is None else H0, dtype=float).reshape(3, 3)
+    s = abs(np.linalg.det(H)) ** (1.0 / 3.0)
+    if not s > 0:
+        raise ValueError(f"{who}: H0 is singular: {H.tolist()}")
+    return H, s
+
+
 def decimated(moves: list[MoveStream], stride: int) -> list[MoveStream]:
     """Every `stride`-th sample of each move, keeping its last one (for cheap coarse searches)."""
     return [MoveStream(m.step, np.r_[m.t[:-1:stride], m.t[-1]], np.vstack([m.y[:-1:stride], m.y[-1:]]),
@@ -267,12 +276,7 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
     less than `tol` (relative Frobenius norm).
     """
     ms = MoveSet.build(moves, B)
-    if H0 is None:
-        H0 = initial_H(moves, B)
-    H = np.asarray(H0, dtype=float).reshape(3, 3)
-    s = abs(np.linalg.det(H)) ** (1.0 / 3.0)
-    if not s > 0:
-        raise ValueError(f"calibrate_gyro_ukf: H0 is singular: {H.tolist()}")
+    H, s = start_and_scale(moves, B, H0, "calibrate_gyro_ukf")
     if not noise_rad > 0:
         raise ValueError(f"calibrate_gyro_ukf: noise_rad must be positive, got {noise_rad!r}")
     if max_passes < 1:

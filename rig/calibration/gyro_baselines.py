@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from rig.calibration.gyro import MoveSet, gyro_result, initial_H, rotation_residuals
+from rig.calibration.gyro import MoveSet, gyro_result, rotation_residuals, start_and_scale
 from rig.calibration.result import TriadCalibration
 from rig.session_data import MoveStream
 
@@ -22,12 +22,7 @@ def calibrate_gyro_trust_region(moves: list[MoveStream], B: np.ndarray, *, H0: n
     The covariance is the Gauss-Newton one, sigma^2 (J^T J)^-1 with sigma^2 from the residuals.
     """
     ms = MoveSet.build(moves, B)
-    if H0 is None:
-        H0 = initial_H(moves, B)
-    H0 = np.asarray(H0, dtype=float).reshape(3, 3)
-    s = abs(np.linalg.det(H0)) ** (1.0 / 3.0)
-    if not s > 0:
-        raise ValueError(f"calibrate_gyro_trust_region: H0 is singular: {H0.tolist()}")
+    H0, s = start_and_scale(moves, B, H0, "calibrate_gyro_trust_region")
 
     def fun(x: np.ndarray) -> np.ndarray:
         return rotation_residuals(x.reshape(3, 3) * s, ms).ravel()
