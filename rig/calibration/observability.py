@@ -14,15 +14,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rig.calibration.ellipsoid import SPREAD_RATIO_MIN, later_pairs, refuse_coplanar
 from rig.errors import CalibrationError
 
 AXES = ("x", "y", "z")
-# Smallest/largest singular value of the direction spread below which an axis counts as unobservable.
-SPREAD_RATIO_MIN = 0.05
 INFO_RATIO_MIN = 1e-6
 SATURATION_MARGIN = 0.98
 DISTINCT_DEG = 2.0
 ELLIPSOID_MIN_DIRECTIONS = 9
+_I3 = np.eye(3)
 
 
 @dataclass
@@ -94,11 +94,13 @@ def direction_problems(x: np.ndarray) -> tuple[np.ndarray, list[str], list[str]]
     return s_dir, [], []
 
 
-def count_distinct(x: np.ndarray, min_angle_deg: float = DISTINCT_DEG) -> int:
-    """Number of directions not within `min_angle_deg` of an earlier one (repeats add no ellipsoid shape)."""
-    u = x / np.linalg.norm(x, axis=1, keepdims=True)
-    close = np.triu(u @ u.T > np.cos(np.radians(min_angle_deg)), 1)
-    return int(len(u) - np.count_nonzero(close.any(axis=0)))
+def count_distinct(x: np.ndarray, min_angle_deg: float = DISTINCT_DEG, *, unit: bool = False) -> int:
+    """Number of directions not within `min_angle_deg` of an earlier one (repeats add no ellipsoid shape).
+
+    unit=True: the rows of x are unit vectors already."""
+    u = x if unit else x / np.sqrt(np.einsum("ij,ij->i", x, x))[:, None]
+    close = (u @ u.T > np.cos(np.radians(min_angle_deg))) & later_pairs(len(u))
+    return len(u) - int(np.count_nonzero(close.any(axis=0)))
 
 
 def axis_name(direction: np.ndarray) -> str:
@@ -135,8 +137,8 @@ def validate_holds(y_means: np.ndarray, R: np.ndarray | None = None, *, min_orie
     y = np.asarray(y_means, dtype=float)
     if y.ndim != 2 or y.shape[1] != 3:
         raise CalibrationError(f"{what}: y_means must have shape (n, 3), got {y.shape}")
-    bad = np.flatnonzero(~np.isfinite(y).all(axis=1))
-    if bad.size:
+    if not np.isfinite(y).all():
+        bad = np.flatnonzero(~np.isfinite(y).all(axis=1))
         raise CalibrationError(f"{what}: hold(s) {bad.tolist()} contain NaN/inf raw means; drop or re-measure them")
     if full_scale is not None:
         sat = np.argwhere(np.abs(y) >= SATURATION_MARGIN * float(full_scale))
@@ -158,24 +160,19 @@ def validate_holds(y_means: np.ndarray, R: np.ndarray | None = None, *, min_orie
 def require_spread(y: np.ndarray, what: str) -> None:
     """Raw points on a plane (affinely) cannot fix an ellipsoid: refuse rather than return a wrong H."""
     yc = y - y.mean(axis=0)
-    s = np.sqrt(np.maximum(np.linalg.eigvalsh(yc.T @ yc), 0.0))[::-1]   # singular values of yc
-    if s[-1] < SPREAD_RATIO_MIN * s[0]:
-        raise CalibrationError(f"{what}: the orientations are coplanar (raw readings lie on a plane, spread ratio "
-                               f"{s[-1] / s[0]:.3g}); one sensor direction is never excited — check the schedule "
-                               "with observability.check_schedule")
+    refuse_coplanar(yc.T @ yc, what)
 
 
 def _as_rotations(R: np.ndarray, what: str = "schedule") -> np.ndarray:
     R = np.asarray(R, dtype=float)
     if R.ndim != 3 or R.shape[1:] != (3, 3):
         raise CalibrationError(f"{what}: rotations must have shape (n, 3, 3), got {R.shape}")
-    bad = np.flatnonzero(~np.isfinite(R).all(axis=(1, 2)))
-    if bad.size:
-        raise CalibrationError(f"{what}: rotation(s) {bad.tolist()} contain NaN/inf")
-    err = np.abs(np.einsum("kji,kjl->kil", R, R) - np.eye(3)).max(axis=(1, 2))
-    det = np.linalg.det(R)
-    bad = np.flatnonzero((err > 1e-6) | (det < 0))
-    if bad.size:
+    err = np.abs(R.transpose(0, 2, 1) @ R - _I3)
+    if not err.max() <= 1e-6 or np.linalg.det(R).min() < 0:        # NaN fails the first test too
+        finite = np.isfinite(R).all(axis=(1, 2))
+        if not finite.all():
+            raise CalibrationError(f"{what}: rotation(s) {np.flatnonzero(~finite).tolist()} contain NaN/inf")
+        bad = np.flatnonzero((err.max(axis=(1, 2)) > 1e-6) | (np.linalg.det(R) < 0))
         raise CalibrationError(f"{what}: rotation(s) {bad.tolist()} are not proper rotations (R^T R != I or det < 0)")
     return R
 

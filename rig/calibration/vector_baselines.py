@@ -83,8 +83,7 @@ def calibrate_sensor_frame_only(y_means: np.ndarray, norm: float, *, full_scale:
     """Ellipsoid only: B = centre, H = norm * sqrtm(A) (symmetric). residual_rms: RMS of |u_k| - norm."""
     y, _ = validate_holds(y_means, None, min_orientations=MIN_ORIENTATIONS, full_scale=full_scale,
                           what="sensor-frame")
-    require_spread(y, "sensor-frame")
-    fit = fit_ellipsoid(y)
+    fit = fit_ellipsoid(y, what="sensor-frame")
     H = sphere_map(fit, norm)
     u = (y - fit.center) @ H.T
     return TriadCalibration(B=fit.center, H=H, method="sensor-frame",
