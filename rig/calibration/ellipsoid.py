@@ -42,7 +42,8 @@ class EllipsoidFit:
         return (V * w) @ V.T
 
 
-def fit_ellipsoid(y: np.ndarray, *, what: str = "ellipsoid fit", check_repeats: bool = True) -> EllipsoidFit:
+def fit_ellipsoid(y: np.ndarray, *, what: str = "ellipsoid fit", check_repeats: bool = True,
+                  min_spread: float = SPREAD_RATIO_MIN) -> EllipsoidFit:
     """Algebraic ellipsoid fit (eqs. 15-17) through n >= 9 non-coplanar points y (n, 3).
 
     The points are centred on their mean and scaled before the solve: this keeps the origin inside the
@@ -50,6 +51,9 @@ def fit_ellipsoid(y: np.ndarray, *, what: str = "ellipsoid fit", check_repeats: 
     for raw counts of any magnitude, which is also what lets the normal equations stand in for lstsq.
     check_repeats=False skips the repeated-point count, for callers that check repeats more strictly
     themselves (the two-step method counts the noise-free reference directions of its known rotations).
+    min_spread: smallest/largest singular value of the centred points below which they count as coplanar and
+    are refused (a flat cap of noisy points gives a wrong centre); 0 accepts any spread, for a fit that only
+    starts an optimiser.
     """
     y = np.asarray(y, dtype=float)
     if y.ndim != 2 or y.shape[1] != 3:
@@ -62,7 +66,7 @@ def fit_ellipsoid(y: np.ndarray, *, what: str = "ellipsoid fit", check_repeats: 
         raise CalibrationError(f"{what}: non-finite values in rows {bad.tolist()}")
     mean = y.sum(axis=0) / n
     yc = y - mean
-    scale = np.sqrt(refuse_coplanar(yc.T @ yc, what).sum() / n)
+    scale = np.sqrt(refuse_coplanar(yc.T @ yc, what, min_spread).sum() / n)
     p1 = np.ones((n, 4))
     np.divide(yc, scale, out=p1[:, :3])
     if check_repeats:
@@ -83,7 +87,7 @@ def fit_ellipsoid(y: np.ndarray, *, what: str = "ellipsoid fit", check_repeats: 
     return EllipsoidFit(center=mean + scale * centre_p, axes=(w / (k * scale * scale), V), residual=residual)
 
 
-def refuse_coplanar(scatter: np.ndarray, what: str) -> np.ndarray:
+def refuse_coplanar(scatter: np.ndarray, what: str, min_spread: float = SPREAD_RATIO_MIN) -> np.ndarray:
     """Raw points on a plane (affinely) cannot fix an ellipsoid: refuse rather than return a wrong H.
 
     scatter is `yc^T yc` of the centred points; returns its eigenvalues (ascending) for the caller's use.
@@ -92,7 +96,7 @@ def refuse_coplanar(scatter: np.ndarray, what: str) -> np.ndarray:
     if not w[2] > 0:
         raise CalibrationError(f"{what}: all points are identical")
     ratio = np.sqrt(max(w[0], 0.0) / w[2])            # of the singular values of the centred points
-    if ratio < SPREAD_RATIO_MIN:
+    if ratio < min_spread:
         raise CalibrationError(f"{what}: the orientations are coplanar (raw readings lie on a plane, spread ratio "
                                f"{ratio:.3g}); one sensor direction is never excited — check the schedule "
                                "with observability.check_schedule")

@@ -99,7 +99,7 @@ def fit_accel_upper(chunks: list[np.ndarray], gravity: float) -> tuple[np.ndarra
     """
     samples = np.vstack(chunks)
     try:
-        ell = fit_ellipsoid(np.array([c.mean(axis=0) for c in chunks]))
+        ell = fit_ellipsoid(np.array([c.mean(axis=0) for c in chunks]), min_spread=0.0)
         H0 = gravity * np.linalg.cholesky(ell.shape).T
         B0 = ell.center
     except (CalibrationError, np.linalg.LinAlgError):
