@@ -99,3 +99,32 @@ def test_joint_calibrates_a_grid_schedule_the_two_step_ellipsoid_cannot(rng):
     cal = calibrate_joint(y, R, truth.norm, reference_world=(0, 0, 1), y_std=np.full((12, 3), 0.5))
     assert h_error(cal.H, truth.H) < 5e-4
     assert np.linalg.norm(cal.B - truth.B) < 3 * np.linalg.norm(cal.B_std) + 1e-9
+
+
+@pytest.mark.parametrize("seed", [50, 53])
+def test_six_holds_without_two_step_start_reach_the_bound_not_a_wrong_minimum(seed):
+    """Six random holds (too few for the ellipsoid): the three fixture-axis starts used before ended in a
+    minimum with reduced chi-square 2e4-3e4 and H off by 200-1200 % on these two schedules."""
+    from procedures.paper_table1 import B_A, G, H_A
+    from rig.calibration.bounds import cramer_rao
+    from scipy.spatial.transform import Rotation
+    rng = np.random.default_rng(seed)
+    R = Rotation.random(6, random_state=rng).as_matrix()
+    sigma = np.sqrt(0.1)
+    y = np.einsum("kji,j->ki", R, [0, 0, G]) @ np.linalg.inv(H_A).T + B_A + sigma * rng.standard_normal((6, 3))
+    cal = calibrate_joint(y, R, G, y_std=np.full((6, 3), sigma))
+    bound = cramer_rao(R, H_A, B_A, np.array([0, 0, G]), sigma)
+    assert cal.extra["reduced_chi2"] < 10
+    assert h_error(cal.H, H_A) < 5 * bound.H_rel_rms
+    assert np.linalg.norm(cal.B - B_A) < 5 * bound.B_rms
+    assert not cal.warnings
+
+
+def test_a_hold_that_moved_is_warned_about_not_silently_fitted(rng):
+    truth = accel_truth(rng)
+    R = random_rotations(12, rng)
+    y = truth.holds(R, HOLD_NOISE, rng)
+    y[4] += 40 * HOLD_NOISE * np.array([1.0, -1.0, 0.5])
+    cal = calibrate_joint(y, R, truth.norm, y_std=np.full((12, 3), HOLD_NOISE))
+    assert cal.extra["reduced_chi2"] > 100
+    assert any("misfit the model" in w for w in cal.warnings)
