@@ -11,7 +11,9 @@ det(H) > 0 ((H, u) and (-H, -u) fit equally well).
 
 Why it is fast: (ii) is linear in u_1 and (i) is linear in H, so one round is `v <- M v` with a 3x3 matrix
 M built once from the holds (v = R_1 u_1, the reference in the world frame). The loop runs the paper's
-iteration exactly, but each round costs a 3x3 product instead of a pass over the holds.
+iteration exactly, but each round costs a 3x3 product instead of a pass over the holds. M is symmetric:
+M = (1/n) sum_kl S_lk R_k R_l^T with S = Z^T (Z Z^T)^-1 Z, a projection, so its eigendecomposition gives
+every power M^k v_0 of a chunk of rounds in one product.
 """
 
 from __future__ import annotations
@@ -48,8 +50,7 @@ def calibrate_two_step(y_means: np.ndarray, R: np.ndarray, norm: float, *, max_i
     if not np.dot(v, v) > (1e-12 * norm) ** 2:
         v = np.array([0.0, 0.0, norm])
     h, v, it, converged, history = _iterate(v, M, G, h, norm, max_iter, tol, record_history)
-    _require_distinct_directions(R, v)
-    return _finish(h.reshape(3, 3), fit.center, R_wide, Z.T, norm, it, converged, history, fit.residual)
+    return _finish(h.reshape(3, 3), fit.center, R, R_wide, Z.T, norm, it, converged, history, fit.residual)
 
 
 CHUNK = 16
@@ -60,14 +61,16 @@ def _iterate(v: np.ndarray, M: np.ndarray, G: np.ndarray, h: np.ndarray, norm: f
     """The paper's rounds `h_k = (norm v/|v|) G`, `v <- M v`, until |h_k - h_(k-1)| < tol |h_k|.
 
     The direction of v after k rounds is that of M^k v_0, so the rounds are taken CHUNK at a time: the
-    powers M^k v_0 by repeated squaring (four products instead of fifteen), then the normalisation, h and the
+    powers M^k v_0 from the eigendecomposition of the symmetric M, then the normalisation, h and the
     convergence test for the whole chunk at once. Same iterates to rounding, same stopping round.
     """
     history = [] if record_history else None
     it, tol2 = 0, tol * tol
+    w, Q = lapack.dsyev(M)[:2]
     while it < max_iter:
         m = min(CHUNK, max_iter - it)
-        V = _powers(M, v)[:m]
+        V = ((w ** _ROUNDS) * (v @ Q)) @ Q.T     # rows M^j v, j = 0 .. CHUNK - 1
+        V = V[:m]
         V *= norm / np.sqrt(np.einsum("ij,ij->i", V, V))[:, None]
         Hs = np.empty((m + 1, 9))
         Hs[0] = h
@@ -84,23 +87,16 @@ def _iterate(v: np.ndarray, M: np.ndarray, G: np.ndarray, h: np.ndarray, norm: f
     return h, v, it, False, history
 
 
-def _powers(M: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rows M^j v for j = 0 .. CHUNK - 1."""
-    V = np.empty((CHUNK, 3))
-    V[0] = v
-    P, j = M, 1
-    while j < CHUNK:
-        np.matmul(V[:j], P.T, out=V[j:2 * j])
-        P, j = P @ P, 2 * j
-    return V
+_ROUNDS = np.arange(CHUNK)[:, None]
 
 
-def _require_distinct_directions(R: np.ndarray, v: np.ndarray) -> None:
+def _refuse_repeated_directions(x: np.ndarray) -> None:
     """Holds that differ only by a turn about the reference give the same reading: the ellipsoid then rests on
-    fewer than 9 points and its centre is wrong however small the noise looks. Refuse, naming the count."""
-    distinct = count_distinct(v @ R / np.sqrt(v @ v), unit=True)          # rows R_k^T v / |v|
+    fewer than 9 points and its centre is wrong however small the noise looks. Refuse, naming the count.
+    x: the unit reference directions R_k^T v / |v| of the holds."""
+    distinct = count_distinct(x, unit=True)
     if distinct < ELLIPSOID_MIN_DIRECTIONS:
-        raise CalibrationError(f"two-step: only {distinct} distinct reference directions among {len(R)} holds "
+        raise CalibrationError(f"two-step: only {distinct} distinct reference directions among {len(x)} holds "
                                f"(the ellipsoid needs {ELLIPSOID_MIN_DIRECTIONS}); add orientations or use the "
                                "joint method")
 
@@ -112,9 +108,10 @@ def normalise_history(Hs: np.ndarray, z: np.ndarray, norm: float) -> np.ndarray:
     return Hs * (sign * norm / u_norm)[:, None, None]
 
 
-def _finish(H: np.ndarray, B: np.ndarray, R_wide: np.ndarray, z: np.ndarray, norm: float, iterations: int,
-            converged: bool, history: list | None, ellipsoid_residual: float) -> TriadCalibration:
-    """Rescale so mean |u_k| = norm, sign with det(H) > 0, and the residuals of the result."""
+def _finish(H: np.ndarray, B: np.ndarray, R: np.ndarray, R_wide: np.ndarray, z: np.ndarray, norm: float,
+            iterations: int, converged: bool, history: list | None, ellipsoid_residual: float) -> TriadCalibration:
+    """Rescale so mean |u_k| = norm, sign with det(H) > 0, refuse repeated reference directions, and the
+    residuals of the result."""
     u = z @ H.T
     u_norm = np.sqrt(np.einsum("ij,ij->i", u, u))
     scale = norm / u_norm.mean()
@@ -125,7 +122,9 @@ def _finish(H: np.ndarray, B: np.ndarray, R_wide: np.ndarray, z: np.ndarray, nor
     n = len(z)
     v = R_wide @ u.ravel() / n
     v *= norm / np.sqrt(v @ v)
-    misfit = u - v @ R_wide.reshape(3, n, 3).transpose(1, 0, 2)     # u_k - R_k^T v
+    x = v @ R                                                        # rows R_k^T v
+    _refuse_repeated_directions(x / norm)
+    misfit = u - x
     norm_err = u_norm * abs(scale) - norm
     warnings = [] if converged else [f"two-step: H did not converge in {iterations} iterations"]
     extra = {"reference_world": v.tolist(), "norm_rms": float(np.sqrt(norm_err @ norm_err / n)),

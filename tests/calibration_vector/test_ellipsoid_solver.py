@@ -41,7 +41,7 @@ def test_fit_refuses_a_flat_cap_unless_told_it_only_starts_an_optimiser():
     assert np.all(np.isfinite(fit_ellipsoid(y, min_spread=0.0).center))
 
 
-def test_rounds_by_repeated_squaring_equal_the_papers_sequential_rounds(rng):
+def test_rounds_taken_in_chunks_equal_the_papers_sequential_rounds(rng):
     from scipy.spatial.transform import Rotation
     R = Rotation.random(20, random_state=rng).as_matrix()
     K = 400 * (np.eye(3) + 0.05 * rng.standard_normal((3, 3)))
