@@ -23,7 +23,7 @@ from rig.errors import CalibrationError
 MIN_POINTS = 9
 DISTINCT_RADIUS = 0.02   # in units of the RMS spread of the points: ~1 deg of orientation
 MIN_RCOND = 1e-13        # of the 9x9 normal matrix: singular-value ratio of the design below ~3e-7 is degenerate
-SPREAD_RATIO_MIN = 0.05  # smallest/largest singular value of the centred points below which they are coplanar
+SPREAD_RATIO_MIN = 0.05  # smallest/largest singular value of a spread (points, directions) below which it is flat
 _QI, _QJ = [0, 1, 2, 0, 0, 1, 0, 1, 2], [0, 1, 2, 1, 2, 2, 3, 3, 3]
 _QW = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0])
 _SYM = [0, 3, 4, 3, 1, 5, 4, 5, 2]
