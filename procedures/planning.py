@@ -11,7 +11,7 @@ fixture, the unit turned half a turn about the vertical. Every second lattice po
 That turn is what tells the table's tilt (and the magnetic field's direction) apart from the mounting part of
 H: on the 12- and 20-point lattices it lowers the Cramer-Rao bound of the accelerometer's H by 39 % and of B
 by 20 %, and of the magnetometer's H by 24 % and B by 29 % (bounds.py; the best of 300 random choices of which
-points to turn is no better), for 3-7 % more rig time.
+points to turn is no better), for 3-7 % more rig time. A second pose outside the table's limits is not taken.
 """
 
 from __future__ import annotations
@@ -41,8 +41,11 @@ def plan_orientations(n: int = 20, *, outer_limits=(-180.0, 180.0), inner_limits
     if seed is not None:
         azimuth = ((azimuth + np.random.default_rng(seed).uniform(0, 360)) % 360.0) - 180.0
     turned = np.arange(n) % 2 == 1                          # the second pose of the same direction
+    azimuth_turned = (azimuth + 360.0) % 360.0 - 180.0
+    turned &= ((outer_limits[0] <= -polar) & (-polar <= outer_limits[1])
+               & (inner_limits[0] <= azimuth_turned) & (azimuth_turned <= inner_limits[1]))
     polar = np.where(turned, -polar, polar)
-    azimuth = np.where(turned, (azimuth + 360.0) % 360.0 - 180.0, azimuth)
+    azimuth = np.where(turned, azimuth_turned, azimuth)
     pts = [Orientation(round(float(a), 3), round(float(b), 3)) for a, b in zip(polar, azimuth)]
     for p in pts:
         if not (outer_limits[0] <= p.outer_deg <= outer_limits[1] and inner_limits[0] <= p.inner_deg <= inner_limits[1]):
