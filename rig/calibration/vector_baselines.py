@@ -74,7 +74,8 @@ def calibrate_sqp(y_means: np.ndarray, R: np.ndarray, norm: float, *, max_iter: 
     extra = {"reference_world": v.tolist(), "residual_kind": "rms |u_k - R_k^T v|",
              "norm_rms": float(np.sqrt(np.mean((np.linalg.norm(u, axis=1) - norm) ** 2)))}
     if record_history:
-        extra["history"] = [(Bk, Hk if np.linalg.det(Hk) > 0 else -Hk) for Bk, Hk in history]
+        signs = np.where(np.linalg.det(np.array([Hk for _, Hk in history])) > 0, 1.0, -1.0) if history else []
+        extra["history"] = [(Bk, Hk * s) for (Bk, Hk), s in zip(history, signs)]
     return TriadCalibration(B=B, H=H, method="sqp", residual_rms=float(np.sqrt(np.mean(np.sum(misfit**2, axis=1)))),
                             iterations=int(sol.nit), converged=bool(sol.success), warnings=warnings, extra=extra)
 
