@@ -54,6 +54,7 @@ def calibrate_two_step(y_means: np.ndarray, R: np.ndarray, norm: float, *, max_i
 
 
 CHUNK = 16
+_ROUNDS = np.arange(CHUNK)[:, None]   # the power of M of each row of a chunk
 
 
 def _iterate(v: np.ndarray, M: np.ndarray, G: np.ndarray, h: np.ndarray, norm: float, max_iter: int, tol: float,
@@ -85,9 +86,6 @@ def _iterate(v: np.ndarray, M: np.ndarray, G: np.ndarray, h: np.ndarray, norm: f
             return h, v, it, True, history
         v = M @ v
     return h, v, it, False, history
-
-
-_ROUNDS = np.arange(CHUNK)[:, None]
 
 
 def _refuse_repeated_directions(x: np.ndarray) -> None:
