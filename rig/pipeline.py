@@ -50,8 +50,12 @@ class SessionCalibration:
     holds_used: dict[str, int] = field(default_factory=dict)
 
 
-def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: float = 0.5) -> SessionCalibration:
-    """Calibrate every sensor of `session`; raises CalibrationError where the data cannot support it."""
+def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: float = 0.5,
+                      gyro_samples: str = "auto") -> SessionCalibration:
+    """Calibrate every sensor of `session`; raises CalibrationError where the data cannot support it.
+
+    gyro_samples: what a raw gyro sample means, "point" or "mean" (gyro.calibrate_gyro), or "auto".
+    """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     _check_finite(session)
@@ -69,7 +73,7 @@ def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: 
     sensors: dict[str, TriadCalibration] = {}
     for name in session.sensors:
         if name == "gyro":
-            sensors[name] = _calibrate_gyro(session, holds[name], excluded, warnings, settle_s)
+            sensors[name] = _calibrate_gyro(session, holds[name], excluded, warnings, settle_s, gyro_samples)
         else:
             sensors[name] = _calibrate_vector(session, name, holds[name], method, warnings)
         _check_result(name, sensors[name], _reference_norm(session, name), warnings)
@@ -83,6 +87,7 @@ def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: 
 def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.PathLike, *, fmt: str = "interchange",
                        accel_file: str | os.PathLike | None = None, gyro_file: str | os.PathLike | None = None,
                        method: str = "joint", settle_s: float = 0.5, gravity: float | None = None,
+                       gyro_samples: str = "auto",
                        unit_serial: str | None = None, board: str | None = None,
                        echo: Callable[[str], None] = print) -> SessionCalibration:
     """Read a session folder, calibrate it, write `OUT/calibration.json`, echo a short summary.
@@ -103,9 +108,10 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
         session = read_session(session_dir)
         if gravity is not None:
             session.gravity = float(gravity)
-        result = calibrate_session(session, method=method, settle_s=settle_s)
+        result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples)
         g, field_uT = session.gravity, session.field_uT
-        source = {"format": "imu-session-csv/1", "path": str(session_dir), "method": method, "settle_s": settle_s}
+        source = {"format": "imu-session-csv/1", "path": str(session_dir), "method": method, "settle_s": settle_s,
+                  "gyro_samples": gyro_samples}
     elif fmt == "imu_tk":
         g = DEFAULT_GRAVITY if gravity is None else float(gravity)
         result, source = _calibrate_imu_tk(session_dir, accel_file, gyro_file, g)
@@ -137,6 +143,8 @@ def summary_lines(result: SessionCalibration) -> list[str]:
         head = f"{name}: {cal.method}" + (f", {holds} holds" if holds is not None else "")
         residual_unit = "rad per move" if name == "gyro" else unit   # gyro: rotation misfit of each move
         head += f", residual_rms {cal.residual_rms:.3g} {residual_unit}, {cal.iterations} iterations"
+        if "sample_model" in cal.extra:
+            head += f", samples read as {cal.extra['sample_model']}"
         if not cal.converged:
             head += " (NOT converged)"
         lines.append(head)
@@ -354,7 +362,7 @@ def jackknife_std(solve: Callable[..., TriadCalibration], y: np.ndarray, R: np.n
 
 
 def _calibrate_gyro(session: SessionData, h: HoldStats, excluded: dict[int, str],
-                    warnings: list[str], settle_s: float = 0.0) -> TriadCalibration:
+                    warnings: list[str], settle_s: float = 0.0, samples: str = "auto") -> TriadCalibration:
     """B from the still holds (eq. 41), H from the moves between trusted holds."""
     if len(h.step) < 1:
         raise CalibrationError("gyro: no usable hold to take the bias from")
@@ -363,7 +371,7 @@ def _calibrate_gyro(session: SessionData, h: HoldStats, excluded: dict[int, str]
     if len(moves) < MIN_GYRO_MOVES:
         raise CalibrationError(f"gyro: {len(moves)} usable moves between holds, need at least {MIN_GYRO_MOVES}")
     _check_move_axes(moves)
-    cal = _solver("gyro", "calibrate_gyro_ukf")(moves, B)
+    cal = _solver("gyro", "calibrate_gyro")(moves, B, samples=samples)
     _warn_coarse_sampling(moves, cal, warnings)
     if cal.B_std is None and len(h.step) > 1:
         cal.B_std = h.mean.std(axis=0, ddof=1) / np.sqrt(len(h.step))

@@ -1,14 +1,20 @@
 """The `Int` operator of the gyroscope step (Zhang 2015, eqs. 52-55): body rates -> rotation over a move.
 
-Equation numbers follow the project brief; the paper's text was not available here, so the scheme is
-ours. Each sample interval uses the 4th-order Magnus expansion with two Gauss points, which for rates
-that are linear in time between samples (the usual model of a sampled rate) collapses to the closed form
+Equation numbers follow the project brief; the paper's text was not available here, so the schemes are
+ours. Two of them:
+- `interval_terms` (the gyro calibration): the rotation vector of each sample interval for either meaning
+  of a sample, the rate at its time stamp ("point": cubic through four samples, Magnus order 4 at two
+  Gauss points, fourth order in h) or its mean over the sample period ("mean": rectangle plus the
+  two-sample coning correction). Reading one kind as the other is a second-order error that dominates.
+- `interval_rotvecs` (integrate_quaternion, the attitude filter): the rate linear between two samples,
 
-    phi_k = h (w_k + w_{k+1}) / 2 + h^2 / 12 (w_k x w_{k+1})           (rotation vector of interval k)
+      phi_k = h (w_k + w_{k+1}) / 2 + h^2 / 12 (w_k x w_{k+1}),
 
-so no sub-steps are needed; its local error is O(h^5) (a few 1e-9 rad over 1 s of table-like rates at
-100 Hz against an ODE solver on the same piecewise-linear rate) and it is exact for constant rates. The
-interval quaternions are multiplied in a balanced tree (log2(m) vectorised levels), which lets one
+  Magnus order 4 for rates that really are linear between samples (a few 1e-9 rad over 1 s of table-like
+  rates at 100 Hz against an ODE solver on the same piecewise-linear rate); second order in h when the
+  rate axis turns, because the rotated trapezoid errors do not telescope.
+
+The interval quaternions are multiplied in a balanced tree (log2(m) vectorised levels), which lets one
 call integrate a whole stack of rate histories, e.g. all sigma points of the UKF at once.
 
 Convention (conventions.md): rates are in the fixture frame, so the orientation evolves as
@@ -34,6 +40,50 @@ def interval_rotvecs(t: np.ndarray, omega: np.ndarray) -> np.ndarray:
     h = np.diff(np.asarray(t, dtype=float))[:, None]
     w0, w1 = omega[..., :-1, :], omega[..., 1:, :]
     return 0.5 * h * (w0 + w1) + (h * h / 12.0) * cross(w0, w1)
+
+
+SAMPLE_MODELS = ("point", "mean")
+_GAUSS = np.array([0.5 - np.sqrt(3.0) / 6.0, 0.5 + np.sqrt(3.0) / 6.0])   # two-point Gauss nodes on [0, 1]
+
+
+def interval_terms(t: np.ndarray, u: np.ndarray, samples: str = "point") -> tuple[np.ndarray, np.ndarray]:
+    """The two parts of each interval's rotation vector, `phi_k = S_k + C_k` (shapes (m-1, 3)).
+
+    S is linear in the samples and C is a cross product of two linear combinations of them, so for
+    `w = H u` the rotation vector is `S H^T + C cof(H)^T` (gyro.MoveSet). What a sample means decides the
+    scheme; a wrong reading costs far more than the order of the scheme:
+    - "point": the rate at t_k. The rate at the two Gauss points of [t_k, t_k+1] comes from the cubic through
+      the four nearest samples, then Magnus order 4, `phi = h/2 (a1 + a2) + sqrt(3)/12 h^2 (a1 x a2)`. The
+      linear rate between samples is only second order in h for a turning rate axis (its trapezoid error
+      does not telescope once rotated); the cubic is fourth order, 150x closer at 50 Hz on smooth moves.
+    - "mean": the mean rate over (t_k-1, t_k], what a decimating or integrating chip reports. Rectangle
+      plus the two-sample coning correction, `phi_k = d_k + (d_k-1 x d_k) / 12` with `d_k = h_k u_k`.
+    """
+    t = np.asarray(t, dtype=float)
+    u = np.asarray(u, dtype=float)
+    h = np.diff(t)[:, None]
+    if samples == "mean":
+        d = h * u[1:]
+        C = np.zeros_like(d)
+        C[1:] = cross(d[:-1], d[1:]) / 12.0
+        return d, C
+    if samples != "point":
+        raise ValueError(f"integrate: unknown sample model {samples!r}; expected one of {SAMPLE_MODELS}")
+    if len(t) < 4:
+        return 0.5 * h * (u[:-1] + u[1:]), (h * h / 12.0) * cross(u[:-1], u[1:])
+    nodes = np.clip(np.arange(len(t) - 1) - 1, 0, len(t) - 4)[:, None] + np.arange(4)
+    a1, a2 = (np.einsum("mj,mjc->mc", _lagrange(t[nodes], t[:-1] + g * h[:, 0]), u[nodes]) for g in _GAUSS)
+    return 0.5 * h * (a1 + a2), (np.sqrt(3.0) / 12.0) * (h * h) * cross(a1, a2)
+
+
+def _lagrange(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Weights (m, 4) of the cubic through each row of nodes (m, 4), evaluated at x (m,)."""
+    W = np.ones(nodes.shape)
+    for j in range(4):
+        for i in range(4):
+            if i != j:
+                W[:, j] *= (x - nodes[:, i]) / (nodes[:, j] - nodes[:, i])
+    return W
 
 
 def quat_exp(phi: np.ndarray) -> np.ndarray:

@@ -165,9 +165,12 @@ def truth_errors(sensors: dict, truth: dict) -> list[str]:
               help="Local gravity in m/s^2 for imu_tk data (default 9.80665; interchange sessions carry their own).")
 @click.option("--settle-s", type=float, default=0.5, show_default=True,
               help="With --from: seconds dropped at the start of each hold (settling).")
+@click.option("--gyro-samples", type=click.Choice(["auto", "point", "mean"]), default="auto", show_default=True,
+              help="With --from: a gyro sample is the rate at its time stamp (point) or its mean over the sample "
+                   "period (mean); auto fits both and keeps the one that matches the known rotations better.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scale, method, orientations,
-              gravity, settle_s, no_progress):
+              gravity, settle_s, gyro_samples, no_progress):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if from_dir or fmt == "imu_tk":
         from rig.pipeline import calibrate_from_dir
@@ -176,7 +179,7 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
             raise click.UsageError("--format imu_tk needs --accel FILE and --gyro FILE")
         try:
             calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
-                               settle_s=settle_s, gravity=gravity, echo=click.echo)
+                               settle_s=settle_s, gravity=gravity, gyro_samples=gyro_samples, echo=click.echo)
         except ValueError as e:
             raise click.ClickException(str(e)) from None
         return
