@@ -40,7 +40,7 @@ def _problem(seed: int, n: int = 20):
     return y, R, np.linalg.inv(H_inv), B
 
 
-def _sqp_finite_difference(y, R):
+def _sqp_finite_difference(y, R, ftol: float = 1e-14):
     """SLSQP on the same cost with 2-point gradients (scipy default when no jac is given)."""
     from scipy.optimize import minimize
     B0 = y.mean(axis=0)
@@ -54,7 +54,45 @@ def _sqp_finite_difference(y, R):
     v0 = np.einsum("kab,kb->a", R, yn) / len(y)
     p0 = np.concatenate([np.zeros(3), np.eye(3).ravel(), v0 / np.linalg.norm(v0)])
     return minimize(cost, p0, method="SLSQP", constraints=[{"type": "eq", "fun": lambda p: p[12:15] @ p[12:15] - 1}],
-                    options={"maxiter": 200, "ftol": 1e-14})
+                    options={"maxiter": 200, "ftol": ftol})
+
+
+def _sqp_fd_H(y, R, ftol: float) -> np.ndarray:
+    """H from the finite-difference SLSQP, rescaled to mean |u_k| = G with det(H) > 0 as ours is."""
+    res = _sqp_finite_difference(y, R, ftol)
+    B0 = y.mean(axis=0)
+    spread = float(np.mean(np.linalg.norm(y - B0, axis=1)))
+    Hn = res.x[3:12].reshape(3, 3)
+    u = (y - (B0 + spread * res.x[:3])) @ Hn.T
+    H = Hn * G / np.linalg.norm(u, axis=1).mean()
+    return H if np.linalg.det(H) > 0 else -H
+
+
+FTOL_LADDER = (1e-14, 1e-12, 1e-10, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4)
+
+
+def equal_accuracy(problems: int = 20) -> dict:
+    """The finite-difference SLSQP stopped as early as it can be while its RMS H error over `problems` random
+    problems stays at or below the two-step method's: the issue's "at equal accuracy", measured rather than
+    assumed (a tight ftol over-solves far below the noise and flatters the speed-up)."""
+    cases = [_problem(seed) for seed in range(problems)]
+    rms = lambda e: float(np.sqrt(np.mean(np.square(e))))
+    ours = rms([np.linalg.norm(calibrate_two_step(y, R, G).H - H) / np.linalg.norm(H) for y, R, H, _ in cases])
+    t_ours = float(np.median([_median_ms(lambda: calibrate_two_step(y, R, G), 200) for y, R, _, _ in cases]))
+    ladder = []
+    for ftol in FTOL_LADDER:
+        err = rms([np.linalg.norm(_sqp_fd_H(y, R, ftol) - H) / np.linalg.norm(H) for y, R, H, _ in cases])
+        t = float(np.median([_median_ms(lambda: _sqp_finite_difference(y, R, ftol), 5) for y, R, _, _ in cases]))
+        ladder.append({"ftol": ftol, "H_rms_error": err, "median_ms": round(t, 3)})
+    loosest = ladder[0]
+    for row in ladder:
+        if row["H_rms_error"] > ours:
+            break
+        loosest = row
+    return {"problems": problems, "two_step_H_rms_error": ours, "two_step_median_ms": round(t_ours, 4),
+            "slsqp_fd_ladder": ladder, "slsqp_fd_loosest_ftol_at_equal_accuracy": loosest["ftol"],
+            "slsqp_fd_equal_accuracy_ms": loosest["median_ms"],
+            "speedup_vs_sqp_finite_difference_equal_accuracy": round(loosest["median_ms"] / t_ours, 1)}
 
 
 def main() -> None:
@@ -85,6 +123,7 @@ def main() -> None:
         "table1_1000_runs_s": round(t_table, 3),
         "table1_ours_part_s": round(table["seconds"]["ours"], 3),
         "table1_optimizer_part_s": round(table["seconds"]["optimizer"], 3),
+        "equal_accuracy": equal_accuracy(),
         "targets": {"two_step_ms": 0.5, "speedup_vs_sqp": 100, "table1_s": 2.0},
     }, indent=2))
 

@@ -379,10 +379,10 @@ def _calibrate_gyro(session: SessionData, h: HoldStats, excluded: dict[int, str]
 
 
 def _warn_coarse_sampling(moves: list[MoveStream], cal: TriadCalibration, warnings: list[str]) -> None:
-    """The moves are integrated with the rate linear between samples; where the table's rate profile has a
-    corner between two samples that is off by up to a/8 dt^2. Measured on the second independent simulator:
-    5.7 deg per sample (200 deg/s on both axes at 50 Hz) left a systematic gyro H error of 0.03-0.045 % on
-    noise-free data; 2.8 deg per sample (the same at 100 Hz) 0.007 %."""
+    """Where the table's rate profile has a corner between two point samples, no interpolation knows where it
+    was: the move's angle is off by up to a/8 dt^2. Measured on the second independent simulator: 5.7 deg per
+    sample (200 deg/s on both axes at 50 Hz) leaves a gyro H error of up to 0.022 % with point samples (0.004 %
+    with mean samples); 2.8 deg per sample (the same at 100 Hz) 0.005 %."""
     worst = max(float(np.max(np.linalg.norm((m.y - cal.B) @ cal.H.T, axis=1)[1:] * np.diff(m.t))) for m in moves)
     if np.degrees(worst) > COARSE_DEG_PER_SAMPLE:
         warnings.append(f"gyro: the table turns up to {np.degrees(worst):.3g} deg between samples; above "
