@@ -46,7 +46,8 @@ SAMPLE_MODELS = ("point", "mean")
 _GAUSS = np.array([0.5 - np.sqrt(3.0) / 6.0, 0.5 + np.sqrt(3.0) / 6.0])   # two-point Gauss nodes on [0, 1]
 
 
-def interval_terms(t: np.ndarray, u: np.ndarray, samples: str = "point") -> tuple[np.ndarray, np.ndarray]:
+def interval_terms(t: np.ndarray, u: np.ndarray, samples: str = "point",
+                   lengths: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The two parts of each interval's rotation vector, `phi_k = S_k + C_k` (shapes (m-1, 3)).
 
     S is linear in the samples and C is a cross product of two linear combinations of them, so for
@@ -58,26 +59,39 @@ def interval_terms(t: np.ndarray, u: np.ndarray, samples: str = "point") -> tupl
       does not telescope once rotated); the cubic is fourth order, 150x closer at 50 Hz on smooth moves.
     - "mean": the mean rate over (t_k-1, t_k], what a decimating or integrating chip reports. Rectangle
       plus the two-sample coning correction, `phi_k = d_k + (d_k-1 x d_k) / 12` with `d_k = h_k u_k`.
+    lengths: t and u hold several streams one after the other, of these lengths (each >= 2); the result then
+    holds their intervals in the same order (sum(lengths) - len(lengths) rows), none across two streams.
     """
     t = np.asarray(t, dtype=float)
     u = np.asarray(u, dtype=float)
-    h = np.diff(t)[:, None]
+    lengths = np.array([len(t)]) if lengths is None else np.asarray(lengths, dtype=int)
+    lo = np.repeat(np.cumsum(lengths) - lengths, lengths - 1)      # first sample of each interval's stream
+    hi = lo + np.repeat(lengths, lengths - 1)                       # one past its last
+    k = np.arange(len(lo)) + np.repeat(np.arange(len(lengths)), lengths - 1)   # the interval's first sample
+    h = (t[k + 1] - t[k])[:, None]
     if samples == "mean":
-        d = h * u[1:]
+        d = h * u[k + 1]
         C = np.zeros_like(d)
-        C[1:] = cross(d[:-1], d[1:]) / 12.0
+        inner = np.flatnonzero(k[1:] > lo[1:]) + 1
+        C[inner] = cross(d[inner - 1], d[inner]) / 12.0
         return d, C
     if samples != "point":
         raise ValueError(f"integrate: unknown sample model {samples!r}; expected one of {SAMPLE_MODELS}")
-    if len(t) < 4:
-        return 0.5 * h * (u[:-1] + u[1:]), (h * h / 12.0) * cross(u[:-1], u[1:])
-    nodes = np.clip(np.arange(len(t) - 1) - 1, 0, len(t) - 4)[:, None] + np.arange(4)
-    a1, a2 = (np.einsum("mj,mjc->mc", _lagrange(t[nodes], t[:-1] + g * h[:, 0]), u[nodes]) for g in _GAUSS)
-    return 0.5 * h * (a1 + a2), (np.sqrt(3.0) / 12.0) * (h * h) * cross(a1, a2)
+    short = hi - lo < 4
+    nodes = np.clip(k - 1, lo, np.maximum(hi - 4, lo))[:, None] + np.arange(4)
+    nodes[short] = k[short, None] + np.array([0, 1, 1, 1])          # placeholders, replaced below
+    a1, a2 = (np.einsum("mj,mjc->mc", _lagrange(t[nodes], t[k] + g * h[:, 0], short), u[nodes]) for g in _GAUSS)
+    S, C = 0.5 * h * (a1 + a2), (np.sqrt(3.0) / 12.0) * (h * h) * cross(a1, a2)
+    if short.any():
+        w0, w1, hs = u[k[short]], u[k[short] + 1], h[short]
+        S[short], C[short] = 0.5 * hs * (w0 + w1), (hs * hs / 12.0) * cross(w0, w1)
+    return S, C
 
 
-def _lagrange(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Weights (m, 4) of the cubic through each row of nodes (m, 4), evaluated at x (m,)."""
+def _lagrange(nodes: np.ndarray, x: np.ndarray, skip: np.ndarray) -> np.ndarray:
+    """Weights (m, 4) of the cubic through each row of nodes (m, 4), evaluated at x (m,); rows in `skip`
+    (streams too short for a cubic) get finite placeholders."""
+    nodes = np.where(skip[:, None], np.arange(4.0), nodes)
     W = np.ones(nodes.shape)
     for j in range(4):
         for i in range(4):

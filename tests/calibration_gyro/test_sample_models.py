@@ -87,3 +87,19 @@ def test_auto_finds_the_sample_model_and_its_accuracy(rng, model):
     assert auto.extra["sample_model"] == model
     assert rel_err(auto.H, H) < 5e-5
     assert rel_err(other.H, H) > 3 * rel_err(auto.H, H)
+
+
+@pytest.mark.parametrize("samples", ["point", "mean"])
+def test_streams_in_one_call_match_one_call_each(rng, samples):
+    """Concatenated streams (one of them too short for a cubic) give each stream's own intervals, none across."""
+    sizes = [7, 2, 3, 12, 4]
+    ts = [np.cumsum(rng.uniform(0.005, 0.015, n)) + 10 * i for i, n in enumerate(sizes)]
+    us = [rng.normal(0, 50, (n, 3)) for n in sizes]
+    S, C = interval_terms(np.concatenate(ts), np.vstack(us), samples, np.array(sizes))
+    one = [interval_terms(t, u, samples) for t, u in zip(ts, us)]
+    assert S.shape == (sum(sizes) - len(sizes), 3)
+    np.testing.assert_allclose(S, np.vstack([s for s, _ in one]), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(C, np.vstack([c for _, c in one]), rtol=1e-12, atol=1e-12)
+    if samples == "point":
+        h = np.diff(ts[1])[0]
+        np.testing.assert_allclose(one[1][0][0], 0.5 * h * (us[1][0] + us[1][1]))   # two samples: the trapezoid
