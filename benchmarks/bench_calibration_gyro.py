@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))
 
 from procedures.paper_table2 import (NOMINAL_COUNTS_PER_RAD_S, move_angle_noise, random_gyro_truth,  # noqa: E402
                                      simulate_gyro_moves)
-from rig.calibration.gyro import calibrate_gyro_ukf  # noqa: E402
+from rig.calibration.gyro import calibrate_gyro, calibrate_gyro_ukf  # noqa: E402
 from rig.calibration.gyro_baselines import calibrate_gyro_trust_region  # noqa: E402
 from rig.calibration.integrate import integrate_rotation  # noqa: E402
 from rig.calibration.turntable_free import calibrate_turntable_free  # noqa: E402
@@ -56,6 +56,7 @@ def gyro_cases(repeat: int) -> dict:
         case = {"moves": len(moves), "samples": samples}
         for name, fn in (("ukf_nominal_H0", lambda: calibrate_gyro_ukf(moves, B, H0=H0)),
                          ("ukf_data_H0", lambda: calibrate_gyro_ukf(moves, B)),
+                         ("both_sample_models_data_H0", lambda: calibrate_gyro(moves, B)),   # what rig calibrate runs
                          ("trust_region_nominal_H0", lambda: calibrate_gyro_trust_region(moves, B, H0=H0))):
             cal, t = timed(fn, repeat)
             case[name] = dict(t, rel_err=float(np.linalg.norm(cal.H - H) / np.linalg.norm(H)),
