@@ -32,8 +32,10 @@ COARSE_DEG_PER_SAMPLE = 4.0    # rotation between gyro samples above which integ
 # one count for quantised, nearly noiseless sensors, was not still.
 MOTION_STD_FACTOR = 5.0
 MOTION_STD_FLOOR_COUNTS = 1.0
-# A gyro hold mean further than this many robust sigmas from the bias was turning.
+# A gyro hold mean further than this many robust sigmas from the bias, and by more than the half count that
+# the mean of quantised samples without noise to dither them can be off anyway, was turning.
 GYRO_MEAN_SIGMAS = 6.0
+GYRO_MEAN_FLOOR_COUNTS = 0.5
 # Rotation vectors of the moves must span 3-D, else one gyro axis is never excited.
 RESIDUAL_WARN_FRACTION = 0.01   # accel/mag residual above 1 % of |g| or |m|
 DEFAULT_GRAVITY = 9.80665
@@ -301,7 +303,8 @@ def _turning_holds(h: HoldStats) -> list[tuple[int, str]]:
     mean_noise = np.median(h.std / np.sqrt(np.maximum(h.count, 1))[:, None], axis=0)
     sigma = np.maximum(mad, mean_noise)
     sigma = np.where(sigma > 0, sigma, 0.5)  # quantised, noiseless: half a count
-    z = np.abs(h.mean - centre) / sigma
+    off = np.abs(h.mean - centre)
+    z = np.where(off > GYRO_MEAN_FLOOR_COUNTS, off / sigma, 0.0)
     return [(int(j), f"mean {_vec(m)} counts is {zz.max():.3g} robust sigmas from the bias {_vec(centre)}")
             for j, m, zz in zip(h.step, h.mean, z) if zz.max() > GYRO_MEAN_SIGMAS]
 
