@@ -17,13 +17,13 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from rig.calibration.observability import direction_problems, tangent_basis, validate_holds
+from rig.calibration.quantisation import QUANTISATION_STD, mean_standard_error
 from rig.calibration.result import TriadCalibration
 from rig.calibration.twostep import calibrate_two_step
 from rig.errors import CalibrationError
 
 MIN_ORIENTATIONS = 6
 N_PARAMS = 14  # B (3) + H (9) + direction of v (2)
-QUANTISATION_STD = 1 / np.sqrt(12.0)   # counts
 MAX_CONDITION = 1e3                    # real triads, soft iron included, are within ~3
 GRID_DIRECTIONS = 200                  # profile-start grid over the hemisphere: ~10 deg apart
 CHI2_SUSPECT = 100.0                   # reduced chi-square above which a fit is retried from the grid start
@@ -91,21 +91,21 @@ def _solve(y, R, norm, sigma, starts, refine_ml: bool, weighted: bool, max_alter
 
 
 def _hold_sigma(y_std, counts, n: int) -> np.ndarray:
-    """Standard error of each hold mean. Raw counts are integers, so no sample is better than the
-    quantisation noise 1/sqrt(12) count: a std below it (a quiet or simulated sensor reports 0) is floored."""
+    """Standard error of each hold mean. Raw counts are integers: no sample is better than the rounding noise,
+    and without noise to dither them a mean keeps a rounding bias of up to half a count however many samples
+    it has (quantisation.mean_standard_error). A quiet or simulated sensor that reports std 0 is such a case."""
     if y_std is None:
         return np.ones((n, 3))
     s = np.broadcast_to(np.asarray(y_std, dtype=float), (n, 3)).copy()
     bad = np.flatnonzero(~(np.isfinite(s).all(axis=1) & (s >= 0).all(axis=1)))
     if bad.size:
         raise CalibrationError(f"joint: y_std must be finite and >= 0; holds {bad.tolist()} are not")
-    s = np.maximum(s, QUANTISATION_STD)
-    if counts is not None:
-        c = np.asarray(counts, dtype=float).reshape(n)
-        if np.any(~(c >= 1)):
-            raise CalibrationError(f"joint: sample counts must be >= 1, holds {np.flatnonzero(~(c >= 1)).tolist()} are not")
-        s = s / np.sqrt(c)[:, None]
-    return s
+    if counts is None:
+        return np.maximum(s, QUANTISATION_STD)
+    c = np.asarray(counts, dtype=float).reshape(n)
+    if np.any(~(c >= 1)):
+        raise CalibrationError(f"joint: sample counts must be >= 1, holds {np.flatnonzero(~(c >= 1)).tolist()} are not")
+    return mean_standard_error(s, c)
 
 
 def _start_references(y, R, norm, reference_world, full_scale) -> list[np.ndarray]:

@@ -11,10 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rig.calibration.quantisation import mean_standard_error
 from rig.rotations import matrix_from_quat, rotvec_from_matrix
 from rig.session_data import SessionData, mean_rotation
 
-QUANTISATION_STD = 1.0 / np.sqrt(12.0)   # counts
 
 
 @dataclass
@@ -62,7 +62,7 @@ def hold_observations(session: SessionData, sensor: str) -> Observations:
     h = session.holds(sensor)
     if len(h.step) == 0:
         raise ValueError(f"{session.source}: sensor {sensor!r} has no samples in any hold")
-    sigma = np.maximum(np.nan_to_num(h.std, nan=0.0), QUANTISATION_STD) / np.sqrt(h.count)[:, None]
+    sigma = mean_standard_error(np.nan_to_num(h.std, nan=0.0), h.count)
     g = np.array([0.0, 0.0, session.gravity])
     n = len(h.step)
     B0 = h.mean.mean(axis=0)
