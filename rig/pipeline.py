@@ -18,6 +18,7 @@ from typing import Callable
 
 import numpy as np
 
+from rig.calibration.quantisation import noise_sigma, rounding_bias_rms
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.rotations import matrix_from_quat
@@ -377,7 +378,9 @@ def _calibrate_gyro(session: SessionData, h: HoldStats, excluded: dict[int, str]
     cal = _solver("gyro", "calibrate_gyro")(moves, B, samples=samples)
     _warn_coarse_sampling(moves, cal, warnings)
     if cal.B_std is None and len(h.step) > 1:
-        cal.B_std = h.mean.std(axis=0, ddof=1) / np.sqrt(len(h.step))
+        # The holds see the same bias, so its rounding error does not average out over them.
+        rounding = rounding_bias_rms(noise_sigma(h.std))
+        cal.B_std = np.sqrt(h.mean.var(axis=0, ddof=1) / len(h.step) + rounding ** 2)
     return cal
 
 

@@ -295,3 +295,15 @@ def test_noiseless_gyro_sub_count_means_are_not_turning():
     assert _turning_holds(_noiseless_gyro_holds(offsets)) == []
     offsets[16, 1] = 5.0
     assert [j for j, _ in _turning_holds(_noiseless_gyro_holds(offsets))] == [16]
+
+
+def test_noiseless_session_reports_its_rounding():
+    """A simulator without noise: every sensor calibrates without misfit warnings, and each B is within a few
+    of its reported standard deviations, which now include the rounding that no averaging removes."""
+    session, truth = build_session(seed=5, hold_s=2.5, noise_counts={"accel": 0.0, "gyro": 0.0, "mag": 0.0})
+    result = calibrate_session(session)
+    assert not [w for w in result.warnings if "misfit" in w], result.warnings
+    assert result.excluded_steps == {}
+    for name in ("accel", "gyro", "mag"):
+        cal = result.sensors[name]
+        assert np.all(np.abs(cal.B - truth.B[name]) < 4 * cal.B_std), (name, cal.B - truth.B[name], cal.B_std)
