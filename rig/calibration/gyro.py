@@ -283,7 +283,7 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
     if max_passes < 1:
         raise ValueError(f"calibrate_gyro_ukf: max_passes must be >= 1, got {max_passes}")
     points = MerweScaledSigmaPoints(9, alpha=sigma_alpha, beta=2.0, kappa=0.0)
-    ukf = UnscentedKalmanFilter(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
+    ukf = _UKF(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
     ukf.Q = np.eye(9) * process_rel_std ** 2
     ukf.R = np.eye(3) * noise_rad ** 2
     full = _singles(ms)
@@ -329,6 +329,14 @@ def calibrate_gyro(moves: list[MoveStream], B: np.ndarray, *, samples: str = "au
     best = min(fits, key=lambda c: c.residual_rms)
     best.extra["misfit_rad_by_sample_model"] = {m: c.residual_rms for m, c in zip(SAMPLE_MODELS, fits)}
     return best
+
+
+class _UKF(UnscentedKalmanFilter):
+    """filterpy's filter with its cross variance as one product: the library sums np.outer over the sigma
+    points in Python, a fifth of the fit's time. Same sum (the residuals here are plain differences)."""
+
+    def cross_variance(self, x, z, sigmas_f, sigmas_h):
+        return (self.Wc[:, None] * (sigmas_f - x)).T @ (sigmas_h - z)
 
 
 def _singles(ms: MoveSet) -> list[MoveSet]:

@@ -91,3 +91,17 @@ def test_mirrored_axis_is_flagged_not_silently_fitted(rng):
     moves, _ = simulate_gyro_moves(rng, H @ np.diag([1.0, 1.0, -1.0]), B, orientations=12)
     for cal in (calibrate_gyro_ukf(moves, B, max_passes=5), calibrate_gyro_trust_region(moves, B)):
         assert any("does not explain the moves" in w for w in cal.warnings)
+
+
+def test_batched_cross_variance_is_filterpys(rng):
+    """The fit's filter replaces filterpy's per-sigma-point loop by one product; the sum must not change."""
+    from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+    from rig.calibration.gyro import _UKF
+
+    points = MerweScaledSigmaPoints(9, alpha=0.1, beta=2.0, kappa=0.0)
+    ours = _UKF(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
+    theirs = UnscentedKalmanFilter(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
+    x, z = rng.normal(size=9), rng.normal(size=3)
+    sf, sh = rng.normal(size=(19, 9)), rng.normal(size=(19, 3))
+    np.testing.assert_allclose(ours.cross_variance(x, z, sf, sh), theirs.cross_variance(x, z, sf, sh), rtol=1e-12,
+                               atol=1e-14)
