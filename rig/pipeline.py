@@ -18,7 +18,7 @@ from typing import Callable
 
 import numpy as np
 
-from rig.calibration.quantisation import noise_sigma, rounding_bias_rms
+from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.rotations import matrix_from_quat
@@ -37,6 +37,8 @@ MOTION_STD_FLOOR_COUNTS = 1.0
 # the mean of quantised samples without noise to dither them can be off anyway, was turning.
 GYRO_MEAN_SIGMAS = 6.0
 GYRO_MEAN_FLOOR_COUNTS = 0.5
+# A gyro sample further than this many hold noise sigmas from the bias on any axis shows the table turning.
+GYRO_STILL_SIGMAS = 6.0
 # Rotation vectors of the moves must span 3-D, else one gyro axis is never excited.
 RESIDUAL_WARN_FRACTION = 0.01   # accel/mag residual above 1 % of |g| or |m|
 DEFAULT_GRAVITY = 9.80665
@@ -371,7 +373,8 @@ def _calibrate_gyro(session: SessionData, h: HoldStats, excluded: dict[int, str]
     if len(h.step) < 1:
         raise CalibrationError("gyro: no usable hold to take the bias from")
     B = np.asarray(_solver("gyro", "gyro_bias")(h.mean, h.count), dtype=float)
-    moves = _trusted_moves(session, excluded, warnings, settle_s)
+    still = GYRO_STILL_SIGMAS * np.maximum(np.median(h.std, axis=0), QUANTISATION_STD)
+    moves = _trusted_moves(session, excluded, warnings, settle_s, B, still)
     if len(moves) < MIN_GYRO_MOVES:
         raise CalibrationError(f"gyro: {len(moves)} usable moves between holds, need at least {MIN_GYRO_MOVES}")
     _check_move_axes(moves)
@@ -396,8 +399,8 @@ def _warn_coarse_sampling(moves: list[MoveStream], cal: TriadCalibration, warnin
                         "(sample faster or move slower)")
 
 
-def _trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list[str],
-                   settle_s: float = 0.0) -> list[MoveStream]:
+def _trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list[str], settle_s: float = 0.0,
+                   rest: np.ndarray | None = None, still_counts: np.ndarray | None = None) -> list[MoveStream]:
     order = [j for j, _ in session.hold_rows(settle_s)]
     next_step = dict(zip(order[:-1], order[1:]))
     y_all = session.raw["gyro"]
@@ -414,7 +417,7 @@ def _trusted_moves(session: SessionData, excluded: dict[int, str], warnings: lis
             warnings.append(f"gyro: move {m.step} -> {end} not used: axis {'xyz'[axis]} at its rail {rail:g} "
                             "counts (rate beyond the range)")
             continue
-        out.append(m.trimmed_to_motion())
+        out.append(m.trimmed_to_motion(rest=rest, still_counts=still_counts))
     return out
 
 

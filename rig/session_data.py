@@ -50,18 +50,25 @@ class MoveStream:
         """R_j^T R_{j+1}: the rotation the integrated gyro must reproduce (conventions.md)."""
         return self.R_start.T @ self.R_end
 
-    def trimmed_to_motion(self, margin_s: float = 0.05, still_rad_s: float = 0.01) -> "MoveStream":
-        """The stream cut to where the reference shows the table turning, plus a margin at both ends.
+    def trimmed_to_motion(self, margin_s: float = 0.05, still_rad_s: float = 0.01, rest: np.ndarray | None = None,
+                          still_counts: np.ndarray | None = None) -> "MoveStream":
+        """The stream cut to where the table turns, plus a margin at both ends.
 
         Outside that span the table stands still, so integrating there adds only rate noise (it grows as the
-        square root of the time integrated). Unchanged when the reference shows no motion at all (a session
-        that logs only hold orientations) or is missing.
+        square root of the time integrated). The span is where the reference shows motion and, given the
+        sensor's `rest` reading and a per-axis `still_counts` threshold, also where the sensor still shows it:
+        a low-passed or delayed gyro (a 5 Hz DLPF lags by ~30 ms) turns on after the encoders stopped, and
+        cutting that tail off costs H ~0.07 % at 40 ms. Unchanged when neither shows motion, or without a
+        reference (a session that logs only hold orientations).
         """
         if self.q_ref is None or len(self.t) < 3:
             return self
         dots = np.abs(np.einsum("ij,ij->i", self.q_ref[1:], self.q_ref[:-1])).clip(max=1.0)
         speed = 2 * np.arccos(dots) / np.diff(self.t)
         moving = np.flatnonzero(speed > still_rad_s)
+        if rest is not None and still_counts is not None:
+            felt = np.flatnonzero((np.abs(self.y - rest) > still_counts).any(axis=1))
+            moving = np.union1d(moving, np.r_[felt, felt - 1].clip(0, len(self.t) - 2))
         if moving.size == 0:
             return self
         keep = (self.t >= self.t[moving[0]] - margin_s) & (self.t <= self.t[moving[-1] + 1] + margin_s)

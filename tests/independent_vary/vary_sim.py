@@ -234,6 +234,7 @@ VARIANTS: dict[str, dict] = {
     "hold_early": {"hold_early_s": 0.3, "ring_deg": 0.02},
     "hold_early_long": {"hold_early_s": 0.8},
     "move_padding": {"move_pad_s": 0.4},
+    "gyro_lpf20ms": {"gyro_model": "lpf", "gyro_lpf_tau": 0.02},
     "fast_50hz": {"rate_hz": 50.0, "vmax_dps": 200.0, "amax_dps2": 800.0, "gyro_lsb_per_dps": 65.5},
     "fast_lpf_50hz": {"rate_hz": 50.0, "vmax_dps": 200.0, "amax_dps2": 800.0, "gyro_lsb_per_dps": 65.5,
                       "gyro_model": "lpf"},
