@@ -53,10 +53,12 @@ def gyro_cases(repeat: int) -> dict:
     for label, noise in (("clean", 0.0), ("noise_0.005_rad_s", 0.005)):
         moves, _ = simulate_gyro_moves(rng, H, B, orientations=20, noise_rad_s=noise)
         samples = int(sum(len(m.t) for m in moves))
+        counts_noise = np.full(3, max(noise * NOMINAL_COUNTS_PER_RAD_S, 1 / np.sqrt(12)))   # what rig calibrate gives
         case = {"moves": len(moves), "samples": samples}
         for name, fn in (("ukf_nominal_H0", lambda: calibrate_gyro_ukf(moves, B, H0=H0)),
                          ("ukf_data_H0", lambda: calibrate_gyro_ukf(moves, B)),
-                         ("both_sample_models_data_H0", lambda: calibrate_gyro(moves, B)),   # what rig calibrate runs
+                         ("both_sample_models_data_H0", lambda: calibrate_gyro(moves, B)),
+                         ("auto_noise_gated_data_H0", lambda: calibrate_gyro(moves, B, rate_noise_counts=counts_noise)),
                          ("trust_region_nominal_H0", lambda: calibrate_gyro_trust_region(moves, B, H0=H0))):
             cal, t = timed(fn, repeat)
             case[name] = dict(t, rel_err=float(np.linalg.norm(cal.H - H) / np.linalg.norm(H)),

@@ -150,6 +150,8 @@ def summary_lines(result: SessionCalibration) -> list[str]:
         head += f", residual_rms {cal.residual_rms:.3g} {residual_unit}, {cal.iterations} iterations"
         if "sample_model" in cal.extra:
             head += f", samples read as {cal.extra['sample_model']}"
+            if len(cal.extra.get("misfit_rad_by_sample_model", ())) == 1:
+                head += " (the moves fit within their noise)"
         if not cal.converged:
             head += " (NOT converged)"
         lines.append(head)
@@ -373,12 +375,12 @@ def _calibrate_gyro(session: SessionData, h: HoldStats, excluded: dict[int, str]
     if len(h.step) < 1:
         raise CalibrationError("gyro: no usable hold to take the bias from")
     B = np.asarray(_solver("gyro", "gyro_bias")(h.mean, h.count), dtype=float)
-    still = GYRO_STILL_SIGMAS * np.maximum(np.median(h.std, axis=0), QUANTISATION_STD)
-    moves = _trusted_moves(session, excluded, warnings, settle_s, B, still)
+    noise = np.maximum(np.median(h.std, axis=0), QUANTISATION_STD)
+    moves = _trusted_moves(session, excluded, warnings, settle_s, B, GYRO_STILL_SIGMAS * noise)
     if len(moves) < MIN_GYRO_MOVES:
         raise CalibrationError(f"gyro: {len(moves)} usable moves between holds, need at least {MIN_GYRO_MOVES}")
     _check_move_axes(moves)
-    cal = _solver("gyro", "calibrate_gyro")(moves, B, samples=samples)
+    cal = _solver("gyro", "calibrate_gyro")(moves, B, samples=samples, rate_noise_counts=noise)
     _warn_coarse_sampling(moves, cal, warnings)
     if cal.B_std is None and len(h.step) > 1:
         # The holds see the same bias, so its rounding error does not average out over them.

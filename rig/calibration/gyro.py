@@ -311,24 +311,43 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
                         "last_change": change, "sample_model": samples})
 
 
-def calibrate_gyro(moves: list[MoveStream], B: np.ndarray, *, samples: str = "auto",
-                   H0: np.ndarray | None = None) -> TriadCalibration:
+def calibrate_gyro(moves: list[MoveStream], B: np.ndarray, *, samples: str = "auto", H0: np.ndarray | None = None,
+                   rate_noise_counts: np.ndarray | None = None) -> TriadCalibration:
     """The UKF fit (calibrate_gyro_ukf) with the sample model the data support.
 
     A session does not say whether a gyro sample is the rate at its time stamp or its mean over the sample
     period, and reading one as the other leaves a systematic H error (0.03 % for 200 deg/s moves at 50 Hz)
-    that no amount of data removes. With samples="auto" both readings are fitted and the one whose
-    integrated moves match the known rotations better is kept: the two fits have the same parameters, so
-    the misfit compares them fairly, and where noise hides the difference either reading is as good.
+    that no amount of data removes. With samples="auto" the point reading is fitted first; given the gyro's
+    per-sample noise (`rate_noise_counts`, per axis), a misfit the noise explains (mean square at most
+    AUTO_MISFIT_RATIO times the angle random walk of the moves) ends it there, since the other reading cannot
+    then be told apart. Otherwise the mean reading is fitted too and the one whose integrated moves match the
+    known rotations better is kept: the two fits have the same parameters, so the misfit compares them fairly.
     """
     if samples != "auto":
         return calibrate_gyro_ukf(moves, B, H0=H0, samples=samples)
-    fits = [calibrate_gyro_ukf(moves, B, H0=H0, samples=SAMPLE_MODELS[0])]
-    for model in SAMPLE_MODELS[1:]:             # the readings differ by ~1e-4 in H: start from the first fit
-        fits.append(calibrate_gyro_ukf(moves, B, H0=fits[0].H, samples=model))
+    first = calibrate_gyro_ukf(moves, B, H0=H0, samples=SAMPLE_MODELS[0])
+    ratio = None if rate_noise_counts is None else misfit_to_noise(first, moves, rate_noise_counts)
+    fits = [first]
+    if ratio is None or ratio > AUTO_MISFIT_RATIO:
+        for model in SAMPLE_MODELS[1:]:         # the readings differ by ~1e-4 in H: start from the first fit
+            fits.append(calibrate_gyro_ukf(moves, B, H0=first.H, samples=model))
     best = min(fits, key=lambda c: c.residual_rms)
     best.extra["misfit_rad_by_sample_model"] = {m: c.residual_rms for m, c in zip(SAMPLE_MODELS, fits)}
+    if ratio is not None:
+        best.extra["point_misfit_to_noise"] = ratio
     return best
+
+
+AUTO_MISFIT_RATIO = 1.5   # noise-limited sessions measured 0.8-1.1; a wrong reading at 50 Hz, 5-40
+
+
+def misfit_to_noise(cal: TriadCalibration, moves: list[MoveStream], rate_noise_counts: np.ndarray) -> float:
+    """Mean square rotation misfit of the moves over what white rate noise alone gives: the angle random walk
+    `tr(H S H^T) sum_k h_k^2` of each move, S = diag(rate_noise_counts^2)."""
+    per_move = np.asarray(cal.extra["residual_rad_per_move"], dtype=float)
+    noise = np.asarray(rate_noise_counts, dtype=float).reshape(3)
+    walk = np.trace(cal.H @ np.diag(noise ** 2) @ cal.H.T) * np.array([np.sum(np.diff(m.t) ** 2) for m in moves])
+    return float(np.mean(per_move ** 2) / np.mean(walk))
 
 
 class _UKF(UnscentedKalmanFilter):

@@ -52,10 +52,11 @@ def test_mean_samples_need_the_mean_reading():
     assert as_mean < 1e-5 < 1e-4 < as_point
 
 
-def _moves(sample_model: str, rate_hz: float, rng: np.random.Generator, H: np.ndarray, B: np.ndarray):
+def _moves(sample_model: str, rate_hz: float, rng: np.random.Generator, H: np.ndarray, B: np.ndarray,
+           noise_counts: float = 0.0, step_rad: float = 3.0):
     """Two-axis table moves (cosine velocity, both axes at once) sampled as point rates or window means."""
     K = np.linalg.inv(H)
-    angles = np.cumsum(rng.uniform(-3.0, 3.0, (13, 2)), axis=0)
+    angles = np.cumsum(rng.uniform(-step_rad, step_rad, (13, 2)), axis=0)
     moves = []
     for j in range(12):
         (a0, b0), (a1, b1) = angles[j], angles[j + 1]
@@ -72,7 +73,8 @@ def _moves(sample_model: str, rate_hz: float, rng: np.random.Generator, H: np.nd
 
         t = np.arange(-0.1, T + 0.1, 1.0 / rate_hz) + rng.uniform(0, 1.0 / rate_hz)
         w = rate(t) if sample_model == "point" else _window_means(rate, t, 1.0 / rate_hz)
-        moves.append(MoveStream(j, t, w @ K.T + B, rot_x(a0) @ rot_z(b0), rot_x(a1) @ rot_z(b1)))
+        y = w @ K.T + B + noise_counts * rng.standard_normal((len(t), 3))
+        moves.append(MoveStream(j, t, y, rot_x(a0) @ rot_z(b0), rot_x(a1) @ rot_z(b1)))
     return moves
 
 
@@ -103,3 +105,16 @@ def test_streams_in_one_call_match_one_call_each(rng, samples):
     if samples == "point":
         h = np.diff(ts[1])[0]
         np.testing.assert_allclose(one[1][0][0], 0.5 * h * (us[1][0] + us[1][1]))   # two samples: the trapezoid
+
+
+def test_auto_fits_one_reading_when_the_noise_explains_the_misfit(rng):
+    """Slow moves at 100 Hz with 2 counts of noise: the readings cannot be told apart, so one fit is enough;
+    fast mean-sampled moves at 50 Hz with 0.1 counts misfit far beyond their noise, and the mean reading wins."""
+    H = np.diag([1.02, 0.98, 1.01]) @ rot_z(0.01) @ rot_x(-0.02) * 1e-3
+    B = np.array([12.0, -30.0, 7.0])
+    slow = calibrate_gyro(_moves("mean", 100.0, rng, H, B, noise_counts=2.0, step_rad=1.0), B,
+                          rate_noise_counts=np.full(3, 2.0))
+    assert slow.extra["point_misfit_to_noise"] < 1.5 and list(slow.extra["misfit_rad_by_sample_model"]) == ["point"]
+    fast = calibrate_gyro(_moves("mean", 50.0, rng, H, B, noise_counts=0.1), B, rate_noise_counts=np.full(3, 0.1))
+    assert fast.extra["point_misfit_to_noise"] > 3
+    assert fast.extra["sample_model"] == "mean" and set(fast.extra["misfit_rad_by_sample_model"]) == {"point", "mean"}
