@@ -97,8 +97,8 @@ def finish_session(out: Path, store, *, method: str, settle_s: float = 0.0) -> i
 
     Holds are recorded after the table settled, so nothing is dropped from their start by default.
     """
-    from rig.io.calibration_json import write_calibration
     from rig.pipeline import calibrate_session
+    from rig.pipeline.writing import write_session_calibration
     from rig.report import write_report
 
     from rig.errors import CalibrationError
@@ -111,9 +111,8 @@ def finish_session(out: Path, store, *, method: str, settle_s: float = 0.0) -> i
         store.set_status("failed", f"calibration: {e}")
         raise click.ClickException(f"{out}: the recorded session cannot be calibrated: {e}") from None
     unit = meta.get("unit", {})
-    write_calibration(out / "calibration.json", result.sensors, gravity=session.gravity, field_uT=session.field_uT,
-                      unit_serial=unit.get("serial"), board=unit.get("board"),
-                      extra={"session": str(out), "warnings": result.warnings})
+    write_session_calibration(out, result, gravity=session.gravity, field_uT=session.field_uT,
+                              unit_serial=unit.get("serial"), board=unit.get("board"), extra={"session": str(out)})
     truth = meta.get("truth")
     limits = (meta.get("config") or {}).get("limits")
     report = write_report(out, session, result.sensors, gravity=session.gravity, field_uT=session.field_uT,

@@ -12,7 +12,8 @@ from io_synthetic import build_session
 from rig.errors import CalibrationError
 from rig.io.calibration_json import read_calibration
 from rig.io.session_csv import write_session
-from rig.pipeline import _turning_holds, calibrate_from_dir, calibrate_session
+from rig.pipeline import calibrate_from_dir, calibrate_session
+from rig.pipeline.screening import turning_holds as _turning_holds
 from rig.session_data import HoldStats
 from tests.paths import SHARED
 

@@ -1,0 +1,138 @@
+"""Calibrate a whole measured session: what `rig calibrate --from DIR --out OUT` runs.
+
+Screening (`screening.py`) decides what the solvers are fed: it drops the settling time of each hold,
+refuses data that cannot give a trustworthy matrix and removes holds that were not still, naming each
+step it drops. Solving (`solving.py`) runs the estimators and checks their results; writing
+(`writing.py`) is the one writer of calibration.json. The rule throughout: a clear error or a flagged
+warning, never a silently wrong matrix.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from rig.calibration import turntable_free
+from rig.calibration.result import TriadCalibration
+from rig.errors import CalibrationError
+from rig.io.imu_tk import read_imu_tk
+from rig.io.session_csv import read_session
+from rig.pipeline.result import SessionCalibration, summary_lines
+from rig.pipeline.screening import (check_finite, find_bad_holds, warn_empty_holds, warn_partial_nan,
+                                    without_steps)
+from rig.pipeline.solving import (METHODS, add_lever_arm, calibrate_gyro_triad, calibrate_vector, check_result,
+                                  reference_norm)
+from rig.pipeline.writing import write_session_calibration
+from rig.session_data import SessionData
+
+DEFAULT_GRAVITY = 9.80665
+
+
+def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: float = 0.5,
+                      gyro_samples: str = "auto") -> SessionCalibration:
+    """Calibrate every sensor of `session`; raises CalibrationError where the data cannot support it.
+
+    gyro_samples: what a raw gyro sample means, "point" or "mean" (gyro.calibrate_gyro), or "auto".
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    check_finite(session)
+    warnings: list[str] = []
+    if settle_s > 0:
+        warnings.append(f"dropped the first {settle_s:g} s of every hold as settling")
+    warn_partial_nan(session, warnings)
+    holds = {s: session.holds(s, settle_s) for s in session.sensors}
+    warn_empty_holds(session, holds, settle_s, warnings)
+    excluded = find_bad_holds(session, holds, settle_s)
+    for step, reason in sorted(excluded.items()):
+        warnings.append(f"step {step}: excluded, {reason}")
+    holds = {s: without_steps(h, excluded) for s, h in holds.items()}
+
+    sensors: dict[str, TriadCalibration] = {}
+    for name in session.sensors:
+        if name == "gyro":
+            sensors[name] = calibrate_gyro_triad(session, holds[name], excluded, warnings, settle_s, gyro_samples)
+        else:
+            sensors[name] = calibrate_vector(session, name, holds[name], method, warnings)
+        check_result(name, sensors[name], reference_norm(session, name), warnings)
+    add_lever_arm(session, sensors, warnings)
+    result = SessionCalibration(sensors, warnings, excluded_steps=excluded,
+                                holds_used={s: len(h.step) for s, h in holds.items()})
+    result.summary = summary_lines(result)
+    return result
+
+
+def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.PathLike, *, fmt: str = "interchange",
+                       accel_file: str | os.PathLike | None = None, gyro_file: str | os.PathLike | None = None,
+                       method: str = "joint", settle_s: float = 0.5, gravity: float | None = None,
+                       gyro_samples: str = "auto",
+                       unit_serial: str | None = None, board: str | None = None,
+                       echo: Callable[[str], None] = print) -> SessionCalibration:
+    """Read a session folder, calibrate it, write `OUT/calibration.json`, echo a short summary.
+
+    fmt "interchange": `session_dir` is an `imu-session-csv/1` folder; `gravity` overrides its meta.
+    fmt "imu_tk": two ASCII files (accel, gyro; default: the one `*acc*` and one `*gyr*` file in
+    `session_dir`, which may be None when both files are given), calibrated without a turntable;
+    `gravity` defaults to 9.80665 m/s^2 (the IMU-TK Xsens record was taken at 9.81744).
+    """
+    if session_dir is None and fmt == "interchange":
+        raise ValueError("an interchange session needs its folder")
+    session_dir = Path(session_dir) if session_dir is not None else Path.cwd()
+    if fmt == "interchange":
+        session = read_session(session_dir)
+        if gravity is not None:
+            session.gravity = float(gravity)
+        result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples)
+        g, field_uT = session.gravity, session.field_uT
+        source = {"format": "imu-session-csv/1", "path": str(session_dir), "method": method, "settle_s": settle_s,
+                  "gyro_samples": gyro_samples}
+    elif fmt == "imu_tk":
+        g = DEFAULT_GRAVITY if gravity is None else float(gravity)
+        result, source = _calibrate_imu_tk(session_dir, accel_file, gyro_file, g)
+        field_uT = None
+    else:
+        raise ValueError(f"fmt must be 'interchange' or 'imu_tk', got {fmt!r}")
+
+    out_path = write_session_calibration(out_dir, result, gravity=g, field_uT=field_uT, unit_serial=unit_serial,
+                                         board=board, extra={"source": source})
+    for line in result.summary:
+        echo(line)
+    for w in result.warnings:
+        echo(f"warning: {w}")
+    echo(f"wrote {out_path}")
+    return result
+
+
+def _calibrate_imu_tk(session_dir: Path, accel_file, gyro_file, gravity: float) -> tuple[SessionCalibration, dict]:
+    acc_path = _pick_file(session_dir, accel_file, "*acc*", "accel")
+    gyr_path = _pick_file(session_dir, gyro_file, "*gyr*", "gyro")
+    t_a, acc = read_imu_tk(acc_path)
+    t_g, gyr = read_imu_tk(gyr_path)
+    if len(t_a) != len(t_g) or not np.allclose(t_a, t_g, rtol=0, atol=1e-6):
+        raise CalibrationError(f"{acc_path} and {gyr_path}: the timestamps differ (rows {len(t_a)} vs {len(t_g)}); "
+                               "the turntable-free calibration needs accel and gyro sampled together")
+    sensors = turntable_free.calibrate_turntable_free(t_a, acc, gyr, gravity=gravity)
+    warnings = ["imu_tk data: no reference orientations; calibrated without a turntable "
+                "(static intervals detected from the data)"]
+    for name, cal in sensors.items():
+        check_result(name, cal, gravity if name == "accel" else None, warnings)
+    result = SessionCalibration(dict(sensors), warnings)
+    result.summary = summary_lines(result)
+    source = {"format": "imu_tk", "accel_file": str(acc_path), "gyro_file": str(gyr_path), "method": "turntable-free"}
+    return result, source
+
+
+def _pick_file(folder: Path, given, pattern: str, what: str) -> Path:
+    if given is not None:
+        p = Path(given)
+        return p if p.is_absolute() or p.exists() else folder / p
+    if not folder.is_dir():
+        raise CalibrationError(f"{folder}: not a folder; name the {what} file explicitly")
+    found = sorted(p for p in folder.glob(pattern) if p.is_file())
+    if len(found) != 1:
+        raise CalibrationError(f"{folder}: expected exactly one {what} file matching {pattern!r}, found "
+                               f"{[p.name for p in found]}; name it explicitly")
+    return found[0]
