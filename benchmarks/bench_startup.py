@@ -1,0 +1,82 @@
+"""Start-up of the `rig` command as a process: `rig --help` and `rig calibrate --from` on a default session.
+
+A command should load what it uses: listing the commands must not import scipy or the simulated hardware, and
+calibrating a recorded session must not pay for what only a running session needs. Targets (issue 17): `rig --help`
+within 0.15 s, `calibrate --from` on a default session within 0.4 s, both as whole processes. Also reports the
+slowest imports of each (python -X importtime), so a regression says where it came from.
+Usage: python benchmarks/bench_startup.py [--repeat N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "io")]
+
+from io_synthetic import build_session  # noqa: E402
+
+from rig.io.session_csv import write_session  # noqa: E402
+
+RIG = [sys.executable, "-m", "rig.cli"]
+
+
+def timed(argv: list[str], repeat: int) -> dict:
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        done = subprocess.run(argv, capture_output=True, text=True)
+        times.append(time.perf_counter() - t0)
+        if done.returncode != 0:
+            raise SystemExit(f"{' '.join(argv)} exited {done.returncode}: {done.stderr.strip()[-400:]}")
+    return {"median_s": round(statistics.median(times), 4), "min_s": round(min(times), 4)}
+
+
+def slowest_imports(argv: list[str], top: int = 6) -> list[dict]:
+    """The packages whose import cost most: the largest cumulative time of any of their modules (-X importtime)."""
+    done = subprocess.run([sys.executable, "-X", "importtime", *argv[1:]], capture_output=True, text=True)
+    totals: dict[str, int] = {}
+    for line in done.stderr.splitlines():
+        if not line.startswith("import time:") or line.count("|") != 2:
+            continue
+        _, cumulative, name = (part.strip() for part in line.split("|"))
+        if cumulative.isdigit():
+            package = name.split(".")[0]
+            totals[package] = max(totals.get(package, 0), int(cumulative))
+    ranked = sorted(totals.items(), key=lambda kv: -kv[1])[:top]
+    return [{"package": name, "ms": round(us / 1000, 1)} for name, us in ranked]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=7)
+    args = parser.parse_args()
+    os.environ.setdefault("PYTHONDONTWRITEBYTECODE", "0")
+    session, _ = build_session(seed=1, hold_s=5.7)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = write_session(session, Path(tmp) / "session")
+        help_argv = [*RIG, "--help"]
+        from_argv = [*RIG, "calibrate", "--from", str(folder), "--out", str(Path(tmp) / "out")]
+        subprocess.run(from_argv, capture_output=True)       # warm the byte-code caches
+        result = {
+            "benchmark": "startup",
+            "python": sys.version.split()[0],
+            "help": {**timed(help_argv, args.repeat), "target_s": 0.15, "slowest_imports": slowest_imports(help_argv)},
+            "calibrate_from": {**timed(from_argv, args.repeat), "rows": int(len(session.t)), "target_s": 0.4,
+                               "slowest_imports": slowest_imports(from_argv)},
+            "repeat": args.repeat,
+            "load_average": os.getloadavg()[0],
+        }
+    print(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()
