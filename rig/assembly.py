@@ -170,8 +170,10 @@ def _real_wiring(config: RigConfig, clock: Clock, stack: contextlib.ExitStack, r
     def gpio(chip: str, line: int) -> Callable[[int], None]:
         try:
             strap = open_gpio(chip, line)
-        except (DriverError, ImportError) as e:
-            raise HardwareUnavailable(f"{config.source}: {e}") from None
+        except DriverError as e:
+            raise HardwareUnavailable(str(e)) from None
+        except ImportError as e:
+            raise HardwareUnavailable(f"set/reset GPIO {chip} line {line}: {e}") from None
         stack.callback(getattr(strap, "close", lambda: None))
         return strap
 
