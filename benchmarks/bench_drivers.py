@@ -29,6 +29,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from fixtures.buses import FakeSMBus, FakeSpiDev  # noqa: E402
 from fixtures.chips import (ADXL312Emulator, ADXL330Model, ADXRS453Emulator, HMC1053Model,  # noqa: E402
                             HMC5843Emulator, ITG3200Emulator, MCP3208Emulator)
+from fixtures.chips.lsm6dso import LSM6DSOEmulator  # noqa: E402
+from drivers.lsm6dso import LSM6DSO  # noqa: E402
 from fixtures.sources import AxisOf, ConstantSource  # noqa: E402
 from rig.clock import SimClock  # noqa: E402
 
@@ -38,7 +40,8 @@ G = 9.80665
 # Bus transactions one read_raw() makes: the triad reads three gyros, the analog boards one ADC frame per
 # channel (HMC1053 with set/reset: three after SET and three after RESET).
 TRANSACTIONS = {"adxl312_i2c": 1, "adxl312_spi": 1, "itg3200": 1, "hmc5843": 1, "adxrs453": 1,
-                "adxrs453_triad": 3, "adxl330_mcp3208": 3, "hmc1053_mcp3208_set_reset": 6}
+                "adxrs453_triad": 3, "adxl330_mcp3208": 3, "hmc1053_mcp3208_set_reset": 6,
+                "lsm6dso_i2c_fifo": 2, "lsm6dso_spi_fifo": 2}
 
 
 def best_us(fn: Callable[[], object], n: int, repeat: int) -> float:
@@ -85,6 +88,12 @@ def build(clock: SimClock) -> dict[str, tuple[object, float]]:
     adc2 = drivers.MCP3208(spi(MCP3208Emulator({3 + i: bridge.channel(i) for i in range(3)}, 3.3, clock),
                                0, 1_000_000), vref=3.3, sleep=sleep)
     out["hmc1053_mcp3208_set_reset"] = (drivers.HMC1053(adc2, (3, 4, 5), bridge.pulse, sleep=sleep), 0.001)
+    # LSM6DSO: one read_raw of the gyro view per output period drains the FIFO (status + one burst of the
+    # gyro and accel words); the accel view's read that follows in the same tick costs no bus transaction.
+    bus.attach(0x6A, LSM6DSOEmulator(accel, rate, clock))
+    out["lsm6dso_i2c_fifo"] = (LSM6DSO(bus, 0x6A, sleep=sleep).gyro, 1 / 104)
+    out["lsm6dso_spi_fifo"] = (LSM6DSO(spi(LSM6DSOEmulator(accel, rate, clock), 3, 10_000_000), sleep=sleep).gyro,
+                               1 / 104)
     for driver, _ in out.values():
         driver.start()
     return out

@@ -46,6 +46,7 @@ class SpiRegisters:
 
     READ = 0x80
     MULTI = 0x40
+    ADDRESS_MASK = 0x3F
 
     def __init__(self, spi: Any, cs: str, chip: str, names: Mapping[int, str]) -> None:
         self.spi, self.chip, self.names = spi, chip, names
@@ -64,11 +65,18 @@ class SpiRegisters:
         return self._xfer([self.READ | reg, 0x00], reg, "read")[1]
 
     def write(self, reg: int, value: int) -> None:
-        self._xfer([reg & 0x3F, value], reg, f"write 0x{value:02X}")
+        self._xfer([reg & self.ADDRESS_MASK, value], reg, f"write 0x{value:02X}")
 
     def read_block(self, reg: int, length: int) -> bytes:
         rx = self._xfer([self.READ | self.MULTI | reg] + [0x00] * length, reg, f"{length}-byte burst read")
         return bytes(rx[1:])
+
+
+class StSpiRegisters(SpiRegisters):
+    """ST MEMS SPI register access: bit 7 = read, 7-bit address, bursts auto-increment by CTRL3_C.IF_INC."""
+
+    MULTI = 0x00
+    ADDRESS_MASK = 0x7F
 
 
 def check_not_floating(value: int, where: str) -> None:

@@ -11,26 +11,46 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, SpiRegisters, check_not_floating, choose, spi_label
+from drivers.contract import DataReady, Placement, Sensor, Wiring
 from drivers.errors import FifoOverrun, SensorFault, WrongIdentity, wrap_os_error
+from drivers.regmap import RegisterMap, Reg, ROBit, ROBits, RWBit, RWBits
 
-DEVID, OFSX, OFSY, OFSZ = 0x00, 0x1E, 0x1F, 0x20
-BW_RATE, POWER_CTL, INT_ENABLE, INT_MAP, INT_SOURCE, DATA_FORMAT = 0x2C, 0x2D, 0x2E, 0x2F, 0x30, 0x31
-DATAX0, FIFO_CTL, FIFO_STATUS = 0x32, 0x38, 0x39
-NAMES = {
-    DEVID: "DEVID", OFSX: "OFSX", OFSY: "OFSY", OFSZ: "OFSZ", BW_RATE: "BW_RATE", POWER_CTL: "POWER_CTL",
-    INT_ENABLE: "INT_ENABLE", INT_MAP: "INT_MAP", INT_SOURCE: "INT_SOURCE", DATA_FORMAT: "DATA_FORMAT",
-    DATAX0: "DATAX0", 0x33: "DATAX1", 0x34: "DATAY0", 0x35: "DATAY1", 0x36: "DATAZ0", 0x37: "DATAZ1",
-    FIFO_CTL: "FIFO_CTL", FIFO_STATUS: "FIFO_STATUS",
-}
 
+class ADXL312Registers(RegisterMap):
+    """ADXL312 register table (registers.md section 1; Linux adxl313.h)."""
+
+    chip = "ADXL312"
+    DEVID = Reg(0x00, access="r")
+    OFSX, OFSY, OFSZ = Reg(0x1E), Reg(0x1F), Reg(0x20)
+    BW_RATE, POWER_CTL, INT_ENABLE, INT_MAP = Reg(0x2C), Reg(0x2D), Reg(0x2E), Reg(0x2F)
+    INT_SOURCE, DATA_FORMAT = Reg(0x30, access="r"), Reg(0x31)
+    DATAX0, DATAX1, DATAY0 = Reg(0x32, access="r"), Reg(0x33, access="r"), Reg(0x34, access="r")
+    DATAY1, DATAZ0, DATAZ1 = Reg(0x35, access="r"), Reg(0x36, access="r"), Reg(0x37, access="r")
+    FIFO_CTL, FIFO_STATUS = Reg(0x38), Reg(0x39, access="r")
+
+    rate = RWBits(4, BW_RATE, 0)
+    low_power = RWBit(BW_RATE, 4)
+    measure = RWBit(POWER_CTL, 3)
+    i2c_disable = RWBit(POWER_CTL, 6)
+    int_data_ready = RWBit(INT_ENABLE, 7)
+    int_watermark = RWBit(INT_ENABLE, 1)
+    int_overrun = RWBit(INT_ENABLE, 0)
+    data_ready = ROBit(INT_SOURCE, 7)
+    watermark_flag = ROBit(INT_SOURCE, 1)
+    overrun = ROBit(INT_SOURCE, 0)
+    self_test = RWBit(DATA_FORMAT, 7)
+    full_res = RWBit(DATA_FORMAT, 3)
+    justify = RWBit(DATA_FORMAT, 2)
+    range = RWBits(2, DATA_FORMAT, 0)
+    fifo_mode = RWBits(2, FIFO_CTL, 6)
+    samples = RWBits(5, FIFO_CTL, 0)
+    entries = ROBits(6, FIFO_STATUS, 0)
+
+
+R = ADXL312Registers
 DEVID_ADXL312 = 0xE5
-MEASURE = 0x08
-FULL_RES = 0x08
-INT_DATA_READY, INT_WATERMARK, INT_OVERRUN = 0x80, 0x02, 0x01
-FIFO_BYPASS, FIFO_STREAM = 0x00, 0x80
-FIFO_ENTRIES_MASK = 0x3F
+FIFO_BYPASS, FIFO_STREAM = 0, 2
 FIFO_DEPTH = 32
-SELF_TEST = 0x80
 SELF_TEST_RANGE_CODE, SELF_TEST_RATE_CODE, SELF_TEST_RATE_HZ = 3, 0xA, 100.0
 SELF_TEST_MIN_MG, SELF_TEST_MAX_MG = 300.0, 3400.0  # no-OS ADXL312_SELF_TEST_MIN/MAX_DEVIATION, Z axis
 
@@ -45,7 +65,7 @@ SPI_MAX_HZ = 5_000_000
 _XYZ = struct.Struct("<HHH")
 
 
-class ADXL312:
+class ADXL312(Sensor, DataReady):
     """ADXL312 in full-resolution mode; `bus` is an smbus2.SMBus-like object or, if it has `xfer2`, a SpiDev.
 
     Full resolution keeps 2.9 mg/LSB in every range, so only the number of valid bits (10..13) changes with
@@ -53,14 +73,17 @@ class ADXL312:
     """
 
     chip = "ADXL312"
+    BUSES, SENSES, OPTIONS = ("i2c", "spi"), ("accel",), ("range_g", "rate_hz")
+    SPI_MODE, SPI_MAX_HZ = SPI_MODE, SPI_MAX_HZ
 
     def __init__(self, bus: Any, address: int = 0x53, *, range_g: float = 12, rate_hz: float = 100,
                  cs: Any = None, sleep: Callable[[float], None] = time.sleep) -> None:
         self.is_spi = hasattr(bus, "xfer2")
         if self.is_spi:
-            self.regs: Any = SpiRegisters(bus, spi_label(bus, cs), self.chip, NAMES)
+            io: Any = SpiRegisters(bus, spi_label(bus, cs), self.chip, R.NAMES)
         else:
-            self.regs = I2cRegisters(bus, address, self.chip, NAMES)
+            io = I2cRegisters(bus, address, self.chip, R.NAMES)
+        self.regs = R(io)
         self.bus, self.address, self.sleep = bus, address, sleep
         self._range_code = choose(range_g, RANGE_CODES, "range", self.chip, " g")
         self._rate_code = choose(rate_hz, RATE_CODES, "output data rate", self.chip, " Hz")
@@ -75,17 +98,18 @@ class ADXL312:
 
     def start(self) -> None:
         """Identity check, then standby -> full-res range -> rate -> FIFO bypass -> MEASURE, then turn-on wait."""
-        devid = self.regs.read(DEVID)
+        regs = self.regs
+        devid = regs.read(R.DEVID)
         if self.is_spi:
-            check_not_floating(devid, self.regs.where(DEVID))
+            check_not_floating(devid, regs.where(R.DEVID))
         if devid != DEVID_ADXL312:
-            raise WrongIdentity(f"{self.regs.where(DEVID)}: read 0x{devid:02X}, expected 0x{DEVID_ADXL312:02X}")
-        self.regs.write(POWER_CTL, 0x00)
-        self.regs.write(DATA_FORMAT, FULL_RES | self._range_code)
-        self.regs.write(BW_RATE, self._rate_code)
-        self.regs.write(INT_ENABLE, 0x00)
-        self.regs.write(FIFO_CTL, FIFO_BYPASS)
-        self.regs.write(POWER_CTL, MEASURE)
+            raise WrongIdentity(f"{regs.where(R.DEVID)}: read 0x{devid:02X}, expected 0x{DEVID_ADXL312:02X}")
+        regs.put(R.POWER_CTL)
+        regs.put(R.DATA_FORMAT, full_res=1, range=self._range_code)
+        regs.put(R.BW_RATE, rate=self._rate_code)
+        regs.put(R.INT_ENABLE)
+        regs.put(R.FIFO_CTL, fifo_mode=FIFO_BYPASS)
+        regs.put(R.POWER_CTL, measure=1)
         self.sleep(1.0 / self.rate_hz + 1.1e-3)  # turn-on time tau + 1.1 ms (datasheet p.4 note 5)
         self._discard_first_sample()
         self.started = True
@@ -97,18 +121,18 @@ class ADXL312:
         step = min(period / 4, 5e-3)
         polls = int((period + 1.1e-3) / step) + 2
         for _ in range(polls):
-            if self.regs.read(INT_SOURCE) & INT_DATA_READY:
+            if self.regs.data_ready:
                 self.read_raw()
                 return
             self.sleep(step)
-        raise SensorFault(f"{self.regs.where(INT_SOURCE)}: DATA_READY not set within "
+        raise SensorFault(f"{self.regs.where(R.INT_SOURCE)}: DATA_READY not set within "
                           f"{(polls * step + period) * 1e3:.1f} ms of MEASURE")
 
     def set_range(self, range_g: float) -> None:
         """Change the range (+-1.5/3/6/12 g); written at once if started."""
         code = choose(range_g, RANGE_CODES, "range", self.chip, " g")
         if self.started:
-            self.regs.write(DATA_FORMAT, FULL_RES | code)
+            self.regs.put(R.DATA_FORMAT, full_res=1, range=code)
         self._range_code, self.range_g = code, float(range_g)
         self._set_bits(code)
 
@@ -116,7 +140,7 @@ class ADXL312:
         """Change the output data rate (BW_RATE codes 0x6..0xF); written at once if started."""
         code = choose(rate_hz, RATE_CODES, "output data rate", self.chip, " Hz")
         if self.started:
-            self.regs.write(BW_RATE, code)
+            self.regs.put(R.BW_RATE, rate=code)
         self._rate_code, self.rate_hz = code, float(rate_hz)
 
     def read_raw(self) -> tuple[int, int, int]:
@@ -125,34 +149,35 @@ class ADXL312:
             try:
                 rx = self.bus.xfer2([0xF2, 0, 0, 0, 0, 0, 0])  # READ | MB | DATAX0
             except OSError as exc:
-                raise wrap_os_error(exc, self.regs.where(DATAX0), "6-byte burst read") from exc
+                raise wrap_os_error(exc, self.regs.where(R.DATAX0), "6-byte burst read") from exc
             raw = bytes(rx[1:])
         else:
             try:
-                raw = bytes(self.bus.read_i2c_block_data(self.address, DATAX0, 6))
+                raw = bytes(self.bus.read_i2c_block_data(self.address, 0x32, 6))  # DATAX0
             except OSError as exc:
-                raise wrap_os_error(exc, self.regs.where(DATAX0), "6-byte burst read") from exc
+                raise wrap_os_error(exc, self.regs.where(R.DATAX0), "6-byte burst read") from exc
         m, s = self._mask, self._sign
         x, y, z = _XYZ.unpack(raw)
         return ((x & m) ^ s) - s, ((y & m) ^ s) - s, ((z & m) ^ s) - s
 
     def data_ready(self) -> bool:
         """INT_SOURCE.DATA_READY (set whatever INT_ENABLE holds; cleared by reading the data)."""
-        return bool(self.regs.read(INT_SOURCE) & INT_DATA_READY)
+        return bool(self.regs.data_ready)
 
     def configure_fifo(self, watermark: int) -> None:
         """Put the 32-sample FIFO in stream mode with `watermark` (1..31); MEASURE is dropped while changing it."""
         if not isinstance(watermark, int) or not 1 <= watermark <= FIFO_DEPTH - 1:
             raise ValueError(f"{self.chip}: unsupported FIFO watermark {watermark!r}; allowed: 1..{FIFO_DEPTH - 1}")
-        self.regs.write(POWER_CTL, 0x00)
-        self.regs.write(FIFO_CTL, FIFO_STREAM | watermark)
-        self.regs.write(INT_ENABLE, INT_WATERMARK | INT_OVERRUN)
-        self.regs.write(POWER_CTL, MEASURE)
+        regs = self.regs
+        regs.put(R.POWER_CTL)
+        regs.put(R.FIFO_CTL, fifo_mode=FIFO_STREAM, samples=watermark)
+        regs.put(R.INT_ENABLE, int_watermark=1, int_overrun=1)
+        regs.put(R.POWER_CTL, measure=1)
         self.watermark = watermark
 
     def fifo_entries(self) -> int:
         """Samples waiting in the FIFO (FIFO_STATUS.ENTRIES)."""
-        return self.regs.read(FIFO_STATUS) & FIFO_ENTRIES_MASK
+        return self.regs.entries
 
     def read_fifo(self) -> list[tuple[int, int, int]]:
         """Drain FIFO_STATUS.ENTRIES samples, one 6-byte burst each (each burst pops one entry).
@@ -160,11 +185,11 @@ class ADXL312:
         INT_SOURCE is read first; if OVERRUN was set the drained samples are attached to the FifoOverrun raised
         afterwards, because the gap makes them useless as a continuous series but they are still valid samples.
         """
-        overrun = self.regs.read(INT_SOURCE) & INT_OVERRUN
-        entries = self.regs.read(FIFO_STATUS) & FIFO_ENTRIES_MASK
+        overrun = self.regs.overrun
+        entries = self.regs.entries
         samples = [self.read_raw() for _ in range(entries)]
         if overrun:
-            raise FifoOverrun(f"{self.regs.where(INT_SOURCE)}: FIFO overrun (bit 0): samples were lost; "
+            raise FifoOverrun(f"{self.regs.where(R.INT_SOURCE)}: FIFO overrun (bit 0): samples were lost; "
                               f"drained {entries}", samples)
         return samples
 
@@ -175,24 +200,25 @@ class ADXL312:
         5 output periods of settling each (datasheet: 4 tau), then restores the configured range and rate.
         """
         period = 1.0 / SELF_TEST_RATE_HZ
-        self.regs.write(POWER_CTL, 0x00)
-        self.regs.write(DATA_FORMAT, FULL_RES | SELF_TEST_RANGE_CODE)
-        self.regs.write(BW_RATE, SELF_TEST_RATE_CODE)
-        self.regs.write(POWER_CTL, MEASURE)
+        regs = self.regs
+        regs.put(R.POWER_CTL)
+        regs.put(R.DATA_FORMAT, full_res=1, range=SELF_TEST_RANGE_CODE)
+        regs.put(R.BW_RATE, rate=SELF_TEST_RATE_CODE)
+        regs.put(R.POWER_CTL, measure=1)
         saved_bits = self._mask, self._sign
         self._set_bits(SELF_TEST_RANGE_CODE)
         try:
             z_off = self._mean_z(samples, period)
-            self.regs.write(DATA_FORMAT, SELF_TEST | FULL_RES | SELF_TEST_RANGE_CODE)
+            regs.put(R.DATA_FORMAT, self_test=1, full_res=1, range=SELF_TEST_RANGE_CODE)
             z_on = self._mean_z(samples, period)
         finally:
             self._mask, self._sign = saved_bits
-            self.regs.write(DATA_FORMAT, FULL_RES | self._range_code)
-            self.regs.write(BW_RATE, self._rate_code)
+            regs.put(R.DATA_FORMAT, full_res=1, range=self._range_code)
+            regs.put(R.BW_RATE, rate=self._rate_code)
             self.sleep(5 * period)
         change_mg = (z_on - z_off) * 1000.0 / LSB_PER_G
         if not SELF_TEST_MIN_MG < change_mg < SELF_TEST_MAX_MG:
-            raise SensorFault(f"{self.regs.where(DATA_FORMAT)}: self-test Z change {change_mg:.0f} mg outside "
+            raise SensorFault(f"{self.regs.where(R.DATA_FORMAT)}: self-test Z change {change_mg:.0f} mg outside "
                               f"{SELF_TEST_MIN_MG:.0f}..{SELF_TEST_MAX_MG:.0f} mg")
         return change_mg
 
@@ -215,3 +241,9 @@ class ADXL312:
             "resolution": "full",
             "scale": STANDARD_GRAVITY / LSB_PER_G, "scale_unit": "m/s^2 per LSB",
         }
+
+    @classmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "ADXL312":
+        bus = wiring.bus_for(placement, SPI_MODE, SPI_MAX_HZ)
+        address = 0x53 if placement.address is None else placement.address
+        return cls(bus, address, cs=placement.cs, sleep=wiring.sleep, **placement.options)

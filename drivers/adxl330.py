@@ -10,6 +10,7 @@ import time
 from typing import Any, Callable, Sequence
 
 from drivers._analog import ADC_MID, check_plausible, validate_channels
+from drivers.contract import Placement, Sensor, SupplyMonitor, Wiring
 
 STANDARD_GRAVITY = 9.80665
 RATIO_PER_G = 0.1          # sensitivity as a fraction of VS per g [U, ADXL335 sibling]
@@ -17,13 +18,14 @@ RANGE_G = 3.0              # minimum full scale [D]
 TURN_ON_S = 0.02           # about 160 * C_filt + 1 ms with 0.1 uF filter caps [U]
 
 
-class ADXL330:
+class ADXL330(Sensor, SupplyMonitor):
     """ADXL330 on three ADC channels; optional supply monitor on `supply_channel` through a divider.
 
     `supply_divider` is V_adc / VS of that divider (0.5 for two equal resistors).
     """
 
     chip = "ADXL330"
+    BUSES, SENSES, OPTIONS = ("adc",), ("accel",), ("supply_channel", "supply_divider", "turn_on_s")
 
     def __init__(self, adc: Any, channels: Sequence[int] = (0, 1, 2), *, supply_channel: int | None = None,
                  supply_divider: float = 0.5, turn_on_s: float = TURN_ON_S,
@@ -64,3 +66,8 @@ class ADXL330:
             "range": RANGE_G, "range_unit": "g", "rate_hz": None,
             "scale": STANDARD_GRAVITY / (4096 * RATIO_PER_G), "scale_unit": "m/s^2 per LSB",
         }
+
+    @classmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "ADXL330":
+        return cls(wiring.adc_for(placement), placement.channels or (0, 1, 2), sleep=wiring.sleep,
+                   **placement.options)

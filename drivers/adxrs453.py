@@ -9,20 +9,40 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 from typing import Any, Callable, Sequence
 
 from drivers._regs import spi_label
+from drivers.contract import Part, Placement, Sensor, Thermometer, Wiring
 from drivers.errors import DeviceAbsent, ProtocolError, SensorFault, WrongIdentity, wrap_os_error
+from drivers.regmap import RegisterMap, Reg, ROBit
 
+
+class ADXRS453Registers(RegisterMap):
+    """ADXRS453 16-bit registers reached through read/write command frames (registers.md section 4)."""
+
+    chip = "ADXRS453"
+    RATE, TEM = Reg(0x00, access="r", width=2), Reg(0x02, access="r", width=2)
+    LOCST, HICST = Reg(0x04, access="r", width=2), Reg(0x06, access="r", width=2)
+    QUAD, FAULT = Reg(0x08, access="r", width=2), Reg(0x0A, access="r", width=2)
+    PID, SN_HIGH = Reg(0x0C, access="r", width=2), Reg(0x0E, access="r", width=2)
+    SN_LOW, DNC = Reg(0x10, access="r", width=2), Reg(0x12, width=2)
+
+    FAIL, AMP, OV, UV = ROBit(FAULT, 11), ROBit(FAULT, 10), ROBit(FAULT, 9), ROBit(FAULT, 8)
+    PLL, Q, NVM, POR = ROBit(FAULT, 7), ROBit(FAULT, 6), ROBit(FAULT, 5), ROBit(FAULT, 4)
+    PWR, CST, CHK = ROBit(FAULT, 3), ROBit(FAULT, 2), ROBit(FAULT, 1)
+
+
+R = ADXRS453Registers
+NAMES = R.NAMES
+RATE, TEM, FAULT, PID, SN_HIGH, SN_LOW, DNC = (int(r) for r in (R.RATE, R.TEM, R.FAULT, R.PID, R.SN_HIGH,
+                                                                R.SN_LOW, R.DNC))
 SENSOR_DATA, READ, WRITE = 0x20000000, 0x80000000, 0x40000000
 CHK = 0x00000002
-RATE, TEM, LOCST, HICST, QUAD, FAULT, PID, SN_HIGH, SN_LOW, DNC = 0x00, 0x02, 0x04, 0x06, 0x08, 0x0A, 0x0C, 0x0E, 0x10, 0x12
-NAMES = {RATE: "RATE", TEM: "TEM", LOCST: "LOCST", HICST: "HICST", QUAD: "QUAD", FAULT: "FAULT", PID: "PID",
-         SN_HIGH: "SN_HIGH", SN_LOW: "SN_LOW", DNC: "DNC"}
 
+# Fault bits 7:1 of a sensor-data response frame (a frame layout, not a register)
 FAULT_FLAGS = ((0x80, "PLL"), (0x40, "Q"), (0x20, "NVM"), (0x10, "POR"), (0x08, "PWR"), (0x04, "CST"),
                (0x02, "CHK"))
-FAULT_REG_FLAGS = ((0x800, "FAIL"), (0x400, "AMP"), (0x200, "OV"), (0x100, "UV")) + FAULT_FLAGS
 ERROR_FLAGS = ((1 << 18, "SE (SPI error)"), (1 << 17, "RE (request error)"), (1 << 16, "DU (data unavailable)"))
 ST_NAMES = {0: "00 (invalid data)", 1: "01 (valid data)", 2: "10 (self-test data)", 3: "11 (R/W response)"}
 
@@ -65,10 +85,11 @@ def _s16(value: int) -> int:
     return value - 0x10000 if value & 0x8000 else value
 
 
-class ADXRS453:
+class ADXRS453(Part, Thermometer):
     """One ADXRS453 on a spidev-like `spi` (xfer2). `cs` labels the chip select in messages."""
 
     chip = "ADXRS453"
+    BUSES = ("spi",)
 
     def __init__(self, spi: Any, *, cs: Any = None, sleep: Callable[[float], None] = time.sleep) -> None:
         self.spi, self.sleep = spi, sleep
@@ -180,7 +201,7 @@ class ADXRS453:
         fault = self._exchange(SENSOR_DATA)
         if fault & 0x0FFF:
             raise SensorFault(f"{self.location}, register 0x{FAULT:02X} FAULT: 0x{fault:04X} "
-                              f"({flag_names(fault, FAULT_REG_FLAGS)})")
+                              f"({', '.join(R.flags(R.FAULT, fault)) or 'none'})")
         self.part_id = part_id
         self.started = True
 
@@ -215,7 +236,8 @@ class ADXRS453:
 
     def write_register(self, reg: int, value: int) -> None:
         """16-bit register write (only DNC is writable); the write response is checked on the next frame."""
-        if reg != DNC:
+        declared = R.REGS.get(NAMES.get(reg, ""))
+        if declared is None or declared.access != "rw":
             raise ValueError(f"{self.chip}: register 0x{reg:02X} is not writable; allowed: 0x{DNC:02X} DNC")
         self._exchange(write_command(reg, value))
         self._exchange(SENSOR_DATA)
@@ -232,6 +254,10 @@ class ADXRS453:
     def serial_number(self) -> int:
         return (self.read_register(SN_HIGH) << 16) | self.read_register(SN_LOW)
 
+    @classmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "ADXRS453":
+        return cls(wiring.bus_for(placement, SPI_MODE, SPI_MAX_HZ), cs=placement.cs, sleep=wiring.sleep)
+
     def settings(self) -> dict:
         """Snapshot for session metadata; `scale` is rad/s per count. Range and rate are fixed in the chip."""
         return {
@@ -243,10 +269,11 @@ class ADXRS453:
         }
 
 
-class GyroTriad:
+class GyroTriad(Sensor, Thermometer):
     """Three ADXRS453 mounted on orthogonal axes, read as one (x, y, z) triad."""
 
     chip = "ADXRS453 triad"
+    BUSES, SENSES = ("spi",), ("gyro",)
 
     def __init__(self, gyros: Sequence[ADXRS453]) -> None:
         if len(gyros) != 3:
@@ -274,3 +301,11 @@ class GyroTriad:
         first = self.gyros[0].settings()
         return {**first, "chip": self.chip, "location": [g.location for g in self.gyros],
                 "part_id": [g.part_id for g in self.gyros]}
+
+    @classmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "GyroTriad":
+        """Three ADXRS453 on the chip selects `placement.cs` = (x, y, z)."""
+        selects = placement.cs if isinstance(placement.cs, (tuple, list)) else ()
+        if len(selects) != 3:
+            raise ValueError(f"{placement.name} ({cls.chip}): needs 3 chip selects (x, y, z), got {placement.cs!r}")
+        return cls([ADXRS453.attach(replace(placement, cs=int(cs)), wiring) for cs in selects])

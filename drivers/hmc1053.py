@@ -11,6 +11,7 @@ import time
 from typing import Any, Callable, Sequence
 
 from drivers._analog import ADC_MID, check_plausible, validate_channels
+from drivers.contract import Placement, Sensor, Wiring
 
 SET, RESET = +1, -1
 SENSITIVITY_V_PER_V_PER_GA = 1.0e-3   # 1.0 mV/V/gauss typ [D]
@@ -19,10 +20,11 @@ UT_PER_GAUSS = 100.0
 SETTLE_S = 1.0e-4                     # bridge + amplifier settling after a strap pulse [U]
 
 
-class HMC1053:
+class HMC1053(Sensor):
     """HMC1053 on three ADC channels. `set_reset(+1)` fires a SET pulse, `set_reset(-1)` a RESET pulse."""
 
     chip = "HMC1053"
+    BUSES, SENSES, OPTIONS = ("adc",), ("mag",), ("settle_s", "amp_gain", "bridge_v")
 
     def __init__(self, adc: Any, channels: Sequence[int] = (3, 4, 5),
                  set_reset: Callable[[int], None] | None = None, *, settle_s: float = SETTLE_S,
@@ -81,3 +83,15 @@ class HMC1053:
             "amp_gain": self.amp_gain, "bridge_v": self.bridge_v,
             "scale": UT_PER_GAUSS / counts_per_ga, "scale_unit": "uT per LSB",
         }
+
+    @classmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "HMC1053":
+        """The set/reset strap is driven from the placement's GPIO line when it has one (else no strap driver)."""
+        set_reset = None
+        if placement.gpio is not None:
+            if wiring.gpio is None:
+                raise ValueError(f"{placement.name} ({cls.chip}): set/reset on GPIO {placement.gpio[0]} line "
+                                 f"{placement.gpio[1]}, but this rig has no GPIO access")
+            set_reset = wiring.gpio(*placement.gpio)
+        return cls(wiring.adc_for(placement), placement.channels or (3, 4, 5), set_reset=set_reset,
+                   sleep=wiring.sleep, **placement.options)

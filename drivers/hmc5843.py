@@ -11,19 +11,35 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, choose
+from drivers.contract import DataReady, Placement, Sensor, Wiring
 from drivers.errors import SensorFault, SensorSaturated, WrongIdentity, wrap_os_error
+from drivers.regmap import RegisterMap, Reg, ROBit, RWBits
 
-CONFIG_A, CONFIG_B, MODE, DATA_X_MSB, STATUS, ID_A = 0x00, 0x01, 0x02, 0x03, 0x09, 0x0A
-NAMES = {
-    CONFIG_A: "CONFIG_A", CONFIG_B: "CONFIG_B", MODE: "MODE", DATA_X_MSB: "DATA_X_MSB", 0x04: "DATA_X_LSB",
-    0x05: "DATA_Y_MSB", 0x06: "DATA_Y_LSB", 0x07: "DATA_Z_MSB", 0x08: "DATA_Z_LSB", STATUS: "STATUS",
-    ID_A: "ID_A", 0x0B: "ID_B", 0x0C: "ID_C",
-}
 
+class HMC5843Registers(RegisterMap):
+    """HMC5843 register table (registers.md section 5; Linux hmc5843_core.c)."""
+
+    chip = "HMC5843"
+    CONFIG_A, CONFIG_B, MODE = Reg(0x00), Reg(0x01), Reg(0x02)
+    DATA_X_MSB, DATA_X_LSB = Reg(0x03, access="r"), Reg(0x04, access="r")
+    DATA_Y_MSB, DATA_Y_LSB = Reg(0x05, access="r"), Reg(0x06, access="r")
+    DATA_Z_MSB, DATA_Z_LSB = Reg(0x07, access="r"), Reg(0x08, access="r")
+    STATUS = Reg(0x09, access="r")
+    ID_A, ID_B, ID_C = Reg(0x0A, access="r"), Reg(0x0B, access="r"), Reg(0x0C, access="r")
+
+    data_rate = RWBits(3, CONFIG_A, 2)
+    measurement = RWBits(2, CONFIG_A, 0)
+    gain = RWBits(3, CONFIG_B, 5)
+    mode = RWBits(2, MODE, 0)
+    ren = ROBit(STATUS, 2)
+    lock = ROBit(STATUS, 1)
+    rdy = ROBit(STATUS, 0)
+
+
+R = HMC5843Registers
 IDENTITY = b"H43"
-MS_NORMAL = 0x00
-MODE_CONTINUOUS, MODE_SLEEP = 0x00, 0x03
-STATUS_RDY = 0x01
+MS_NORMAL = 0
+MODE_CONTINUOUS, MODE_SLEEP = 0, 3
 OVERFLOW = -4096
 AXES = "XYZ"
 
@@ -36,14 +52,15 @@ READY_POLLS, READY_POLL_S = 150, 0.02  # kernel: 150 polls of STATUS.RDY, 20 ms 
 _XYZ = struct.Struct(">hhh")
 
 
-class HMC5843:
+class HMC5843(Sensor, DataReady):
     """HMC5843 in continuous mode. `gain` is in LSB per gauss (kernel table), `rate_hz` the DO output rate."""
 
     chip = "HMC5843"
+    BUSES, SENSES, OPTIONS = ("i2c",), ("mag",), ("rate_hz", "gain")
 
     def __init__(self, bus: Any, address: int = 0x1E, *, rate_hz: float = 10, gain: int = 1300,
                  sleep: Callable[[float], None] = time.sleep) -> None:
-        self.regs = I2cRegisters(bus, address, self.chip, NAMES)
+        self.regs = R(I2cRegisters(bus, address, self.chip, R.NAMES))
         self.bus, self.address, self.sleep = bus, address, sleep
         self._rate_code = choose(rate_hz, RATE_CODES, "output rate", self.chip, " Hz")
         self._gain_code = choose(gain, GAIN_CODES, "gain", self.chip, " LSB/Ga")
@@ -52,12 +69,13 @@ class HMC5843:
 
     def start(self) -> None:
         """ID 'H43' -> CONFIG_A (rate, normal bias) -> CONFIG_B (gain) -> MODE continuous -> settle."""
-        ident = self.regs.read_block(ID_A, 3)
+        regs = self.regs
+        ident = regs.read_block(R.ID_A, 3)
         if ident != IDENTITY:
-            raise WrongIdentity(f"{self.regs.where(ID_A)}..0x0C: read {ident!r}, expected {IDENTITY!r}")
-        self.regs.write(CONFIG_A, (self._rate_code << 2) | MS_NORMAL)
-        self.regs.write(CONFIG_B, self._gain_code << 5)
-        self.regs.write(MODE, MODE_CONTINUOUS)
+            raise WrongIdentity(f"{regs.where(R.ID_A)}..0x0C: read {ident!r}, expected {IDENTITY!r}")
+        regs.put(R.CONFIG_A, data_rate=self._rate_code, measurement=MS_NORMAL)
+        regs.put(R.CONFIG_B, gain=self._gain_code)
+        regs.put(R.MODE, mode=MODE_CONTINUOUS)
         self._settle()
         self.started = True
 
@@ -72,16 +90,16 @@ class HMC5843:
         period = 1.0 / self.rate_hz
         self.sleep(2.2 * period)
         self.wait_ready()
-        self.regs.read_block(DATA_X_MSB, 6)
+        self.regs.read_block(R.DATA_X_MSB, 6)
         self.sleep(1.1 * period)
 
     def wait_ready(self) -> None:
         """Poll STATUS.RDY like the kernel (bounded); SensorFault if no conversion completes."""
         for _ in range(READY_POLLS):
-            if self.regs.read(STATUS) & STATUS_RDY:
+            if self.regs.rdy:
                 return
             self.sleep(READY_POLL_S)
-        raise SensorFault(f"{self.regs.where(STATUS)}: RDY not set after {READY_POLLS} polls "
+        raise SensorFault(f"{self.regs.where(R.STATUS)}: RDY not set after {READY_POLLS} polls "
                           f"{READY_POLL_S * 1e3:g} ms apart")
 
     def set_gain(self, gain: int) -> None:
@@ -89,7 +107,7 @@ class HMC5843:
         code = choose(gain, GAIN_CODES, "gain", self.chip, " LSB/Ga")
         self._gain_code, self.gain = code, int(gain)
         if self.started:
-            self.regs.write(CONFIG_B, code << 5)
+            self.regs.put(R.CONFIG_B, gain=code)
             self._settle()
 
     def set_rate(self, rate_hz: float) -> None:
@@ -97,30 +115,30 @@ class HMC5843:
         code = choose(rate_hz, RATE_CODES, "output rate", self.chip, " Hz")
         self._rate_code, self.rate_hz = code, float(rate_hz)
         if self.started:
-            self.regs.write(CONFIG_A, (code << 2) | MS_NORMAL)
+            self.regs.put(R.CONFIG_A, data_rate=code, measurement=MS_NORMAL)
             self._settle()
 
     def sleep_mode(self) -> None:
         """MODE = sleep (kernel suspend); `start()` wakes it again."""
-        self.regs.write(MODE, MODE_SLEEP)
+        self.regs.put(R.MODE, mode=MODE_SLEEP)
         self.started = False
 
     def read_raw(self) -> tuple[int, int, int]:
         """One 6-byte burst from 0x03: big-endian X, Y, Z (HMC5843 order). -4096 raises SensorSaturated."""
         try:
-            xyz = _XYZ.unpack(bytes(self.bus.read_i2c_block_data(self.address, DATA_X_MSB, 6)))
+            xyz = _XYZ.unpack(bytes(self.bus.read_i2c_block_data(self.address, 0x03, 6)))  # DATA_X_MSB
         except OSError as exc:
-            raise wrap_os_error(exc, self.regs.where(DATA_X_MSB), "6-byte burst read") from exc
+            raise wrap_os_error(exc, self.regs.where(R.DATA_X_MSB), "6-byte burst read") from exc
         if OVERFLOW in xyz:
             axis = AXES[xyz.index(OVERFLOW)]
-            reg = DATA_X_MSB + 2 * xyz.index(OVERFLOW)
+            reg = R.DATA_X_MSB.address + 2 * xyz.index(OVERFLOW)
             raise SensorSaturated(f"{self.regs.where(reg)}: {axis} axis reads -4096 (ADC overflow or "
                                   f"bias overflow) at gain {self.gain} LSB/Ga; lower the gain")
         return xyz
 
     def data_ready(self) -> bool:
         """STATUS.RDY: a sample exists (it stays set once the chip has measured; reading does not clear it)."""
-        return bool(self.regs.read(STATUS) & STATUS_RDY)
+        return bool(self.regs.rdy)
 
     def settings(self) -> dict:
         """Snapshot for session metadata; `scale` is uT per count."""
@@ -130,3 +148,8 @@ class HMC5843:
             "rate_hz": self.rate_hz, "gain_lsb_per_ga": self.gain,
             "scale": UT_PER_GAUSS / self.gain, "scale_unit": "uT per LSB",
         }
+
+    @classmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "HMC5843":
+        address = 0x1E if placement.address is None else placement.address
+        return cls(wiring.bus_for(placement, 0, 0), address, sleep=wiring.sleep, **placement.options)

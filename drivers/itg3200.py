@@ -13,26 +13,45 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, choose
+from drivers.contract import DataReady, Placement, Sensor, Thermometer, Wiring
 from drivers.errors import SensorFault, WrongIdentity, wrap_os_error
+from drivers.regmap import RegisterMap, Reg, ROBit, RWBit, RWBits
 
-WHO_AM_I, SMPLRT_DIV, DLPF_FS, INT_CFG, INT_STATUS = 0x00, 0x15, 0x16, 0x17, 0x1A
-TEMP_OUT_H, GYRO_XOUT_H, PWR_MGM = 0x1B, 0x1D, 0x3E
-NAMES = {
-    WHO_AM_I: "WHO_AM_I", SMPLRT_DIV: "SMPLRT_DIV", DLPF_FS: "DLPF_FS", INT_CFG: "INT_CFG",
-    INT_STATUS: "INT_STATUS", TEMP_OUT_H: "TEMP_OUT_H", 0x1C: "TEMP_OUT_L", GYRO_XOUT_H: "GYRO_XOUT_H",
-    0x1E: "GYRO_XOUT_L", 0x1F: "GYRO_YOUT_H", 0x20: "GYRO_YOUT_L", 0x21: "GYRO_ZOUT_H", 0x22: "GYRO_ZOUT_L",
-    PWR_MGM: "PWR_MGM",
-}
 
+class ITG3200Registers(RegisterMap):
+    """ITG-3200 register table (registers.md section 3; Linux itg3200.h)."""
+
+    chip = "ITG-3200"
+    WHO_AM_I, SMPLRT_DIV, DLPF_FS, INT_CFG = Reg(0x00), Reg(0x15), Reg(0x16), Reg(0x17)
+    INT_STATUS = Reg(0x1A, access="r")
+    TEMP_OUT_H, TEMP_OUT_L = Reg(0x1B, access="r"), Reg(0x1C, access="r")
+    GYRO_XOUT_H, GYRO_XOUT_L = Reg(0x1D, access="r"), Reg(0x1E, access="r")
+    GYRO_YOUT_H, GYRO_YOUT_L = Reg(0x1F, access="r"), Reg(0x20, access="r")
+    GYRO_ZOUT_H, GYRO_ZOUT_L = Reg(0x21, access="r"), Reg(0x22, access="r")
+    PWR_MGM = Reg(0x3E)
+
+    id = RWBits(6, WHO_AM_I, 1)
+    fs_sel = RWBits(2, DLPF_FS, 3)
+    dlpf_cfg = RWBits(3, DLPF_FS, 0)
+    actl = RWBit(INT_CFG, 7)
+    open_drain = RWBit(INT_CFG, 6)
+    latch_int_en = RWBit(INT_CFG, 5)
+    int_anyrd_2clear = RWBit(INT_CFG, 4)
+    itg_rdy_en = RWBit(INT_CFG, 2)
+    raw_rdy_en = RWBit(INT_CFG, 0)
+    itg_rdy = ROBit(INT_STATUS, 2)
+    raw_data_rdy = ROBit(INT_STATUS, 0)
+    h_reset = RWBit(PWR_MGM, 7)
+    sleep = RWBit(PWR_MGM, 6)
+    stby = RWBits(3, PWR_MGM, 3)
+    clk_sel = RWBits(3, PWR_MGM, 0)
+
+
+R = ITG3200Registers
 ID_BITS = 0x34                      # WHO_AM_I bits 6:1
-H_RESET = 0x80
-CLK_PLL_X = 0x01
-FS_SEL_2000 = 0x18                  # FS_SEL = 3, the only documented full scale
-INT_LATCH = 0x20                    # LATCH_INT_EN: level held until cleared
-INT_ANYRD_2CLEAR = 0x10
-ITG_RDY_EN, RAW_RDY_EN = 0x04, 0x01
-INT_CFG_VALUE = INT_LATCH | INT_ANYRD_2CLEAR | ITG_RDY_EN | RAW_RDY_EN
-ITG_RDY, RAW_DATA_RDY = 0x04, 0x01
+CLK_PLL_X = 1
+FS_SEL_2000 = 3                     # the only documented full scale
+INT_CFG_FIELDS = {"latch_int_en": 1, "int_anyrd_2clear": 1, "itg_rdy_en": 1, "raw_rdy_en": 1}
 
 DLPF_CODES = {256: 0, 188: 1, 98: 2, 42: 3, 20: 4, 10: 5, 5: 6}
 LSB_PER_DPS = 14.375
@@ -55,7 +74,7 @@ def exact_rates(dlpf_hz: int) -> dict[float, int]:
     return {internal // (d + 1): d for d in range(256) if internal % (d + 1) == 0}
 
 
-class ITG3200:
+class ITG3200(Sensor, DataReady, Thermometer):
     """ITG-3200 at +-2000 deg/s with the PLL on the X gyro as clock.
 
     INT_CFG latches the interrupt and lets any read clear it: a polled or level-triggered host never misses the
@@ -64,10 +83,11 @@ class ITG3200:
     """
 
     chip = "ITG-3200"
+    BUSES, SENSES, OPTIONS = ("i2c",), ("gyro",), ("rate_hz", "dlpf_hz")
 
     def __init__(self, bus: Any, address: int = 0x68, *, rate_hz: float = 100, dlpf_hz: int = 42,
                  sleep: Callable[[float], None] = time.sleep) -> None:
-        self.regs = I2cRegisters(bus, address, self.chip, NAMES)
+        self.regs = R(I2cRegisters(bus, address, self.chip, R.NAMES))
         self.bus, self.address, self.sleep = bus, address, sleep
         self._dlpf_code = choose(dlpf_hz, DLPF_CODES, "low-pass bandwidth", self.chip, " Hz")
         self._divider = choose(rate_hz, exact_rates(dlpf_hz), f"sample rate with DLPF {dlpf_hz} Hz",
@@ -80,21 +100,22 @@ class ITG3200:
 
         INT_CFG (with ITG_RDY_EN) is written before the clock switch so the PLL-ready flag cannot be missed.
         """
-        who = self.regs.read(WHO_AM_I)
-        if (who >> 1) & 0x3F != ID_BITS:
-            raise WrongIdentity(f"{self.regs.where(WHO_AM_I)}: read 0x{who:02X}, bits 6:1 should be "
+        regs = self.regs
+        who = regs.read(R.WHO_AM_I)
+        if R.id.get(who) != ID_BITS:
+            raise WrongIdentity(f"{regs.where(R.WHO_AM_I)}: read 0x{who:02X}, bits 6:1 should be "
                                 f"0x{ID_BITS:02X}")
-        self.regs.write(PWR_MGM, H_RESET)
+        regs.put(R.PWR_MGM, h_reset=1)
         self.sleep(RESET_WAIT_S)
-        self.regs.write(INT_CFG, INT_CFG_VALUE)
-        self.regs.write(PWR_MGM, CLK_PLL_X)
-        self.regs.write(DLPF_FS, FS_SEL_2000 | self._dlpf_code)
-        self.regs.write(SMPLRT_DIV, self._divider)
+        regs.put(R.INT_CFG, **INT_CFG_FIELDS)
+        regs.put(R.PWR_MGM, clk_sel=CLK_PLL_X)
+        wrote = R.compose(R.DLPF_FS, fs_sel=FS_SEL_2000, dlpf_cfg=self._dlpf_code)
+        regs.write(R.DLPF_FS, wrote)
+        regs.write(R.SMPLRT_DIV, self._divider)                 # a plain 8-bit divider, no fields
         self._wait_pll_ready()
-        dlpf_fs = self.regs.read(DLPF_FS)
-        if dlpf_fs != FS_SEL_2000 | self._dlpf_code:
-            raise SensorFault(f"{self.regs.where(DLPF_FS)}: read back 0x{dlpf_fs:02X}, wrote "
-                              f"0x{FS_SEL_2000 | self._dlpf_code:02X}")
+        dlpf_fs = regs.read(R.DLPF_FS)
+        if dlpf_fs != wrote:
+            raise SensorFault(f"{regs.where(R.DLPF_FS)}: read back 0x{dlpf_fs:02X}, wrote 0x{wrote:02X}")
         self._discard_first_sample()
         self.started = True
 
@@ -108,19 +129,19 @@ class ITG3200:
         step = min(period / 4, READY_POLL_S)
         polls = int((2 * period + 0.05) / step) + 1
         for _ in range(polls):
-            if self.regs.read(INT_STATUS) & RAW_DATA_RDY:
+            if self.regs.raw_data_rdy:
                 self.read_raw()
                 return
             self.sleep(step)
-        raise SensorFault(f"{self.regs.where(INT_STATUS)}: RAW_DATA_RDY not set within "
+        raise SensorFault(f"{self.regs.where(R.INT_STATUS)}: RAW_DATA_RDY not set within "
                           f"{polls * step * 1e3:.0f} ms of configuring {self.rate_hz:g} Hz")
 
     def _wait_pll_ready(self) -> None:
         for _ in range(READY_POLLS):
-            if self.regs.read(INT_STATUS) & ITG_RDY:
+            if self.regs.itg_rdy:
                 return
             self.sleep(READY_POLL_S)
-        raise SensorFault(f"{self.regs.where(INT_STATUS)}: ITG_RDY (PLL ready) not set after "
+        raise SensorFault(f"{self.regs.where(R.INT_STATUS)}: ITG_RDY (PLL ready) not set after "
                           f"{READY_POLLS} polls {READY_POLL_S * 1e3:g} ms apart")
 
     def set_rate(self, rate_hz: float) -> None:
@@ -128,24 +149,24 @@ class ITG3200:
         divider = choose(rate_hz, exact_rates(self.dlpf_hz), f"sample rate with DLPF {self.dlpf_hz} Hz",
                          self.chip, " Hz")
         if self.started:
-            self.regs.write(SMPLRT_DIV, divider)
+            self.regs.write(R.SMPLRT_DIV, divider)
         self._divider, self.rate_hz = divider, float(rate_hz)
 
     def read_raw(self) -> tuple[int, int, int]:
         """One 6-byte burst from GYRO_XOUT_H: big-endian signed X, Y, Z at 14.375 LSB per deg/s."""
         try:
-            return _XYZ.unpack(bytes(self.bus.read_i2c_block_data(self.address, GYRO_XOUT_H, 6)))
+            return _XYZ.unpack(bytes(self.bus.read_i2c_block_data(self.address, 0x1D, 6)))  # GYRO_XOUT_H
         except OSError as exc:
-            raise wrap_os_error(exc, self.regs.where(GYRO_XOUT_H), "6-byte burst read") from exc
+            raise wrap_os_error(exc, self.regs.where(R.GYRO_XOUT_H), "6-byte burst read") from exc
 
     def read_temperature(self) -> float:
         """Die temperature in degC: (raw + 23000) / 280 (kernel offset and scale)."""
-        (raw,) = _T.unpack(self.regs.read_block(TEMP_OUT_H, 2))
+        (raw,) = _T.unpack(self.regs.read_block(R.TEMP_OUT_H, 2))
         return (raw + 23000) / 280.0
 
     def data_ready(self) -> bool:
         """INT_STATUS.RAW_DATA_RDY (this read also clears the latched flag)."""
-        return bool(self.regs.read(INT_STATUS) & RAW_DATA_RDY)
+        return bool(self.regs.raw_data_rdy)
 
     def settings(self) -> dict:
         """Snapshot for session metadata; `scale` is rad/s per count."""
@@ -155,3 +176,8 @@ class ITG3200:
             "rate_hz": self.rate_hz, "dlpf_hz": self.dlpf_hz,
             "scale": math.radians(1.0 / LSB_PER_DPS), "scale_unit": "rad/s per LSB",
         }
+
+    @classmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "ITG3200":
+        address = 0x68 if placement.address is None else placement.address
+        return cls(wiring.bus_for(placement, 0, 0), address, sleep=wiring.sleep, **placement.options)

@@ -11,6 +11,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import spi_label
+from drivers.contract import Part, Placement, Wiring
 from drivers.errors import DeviceAbsent, ProtocolError, wrap_os_error
 
 START = 0x04
@@ -34,10 +35,11 @@ _SINGLE = {ch: command_bytes(ch, True) for ch in CHANNELS}
 _DIFF = {pair: command_bytes(pair, False) for pair in DIFF_PAIRS}
 
 
-class MCP3208:
+class MCP3208(Part):
     """MCP3208 on a spidev-like object; `vref` (volts) converts codes to volts."""
 
     chip = "MCP3208"
+    BUSES, OPTIONS = ("spi",), ("vref",)
 
     def __init__(self, spi: Any, *, vref: float = 3.3, cs: Any = None,
                  sleep: Callable[[float], None] = time.sleep) -> None:
@@ -94,3 +96,8 @@ class MCP3208:
     def settings(self) -> dict:
         return {"chip": self.chip, "interface": "spi", "location": self.location, "vref_v": self.vref,
                 "bits": 12, "scale": self.vref / FULL_SCALE, "scale_unit": "V per LSB"}
+
+    @classmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "MCP3208":
+        spi = wiring.bus_for(placement, SPI_MODE, SPI_MAX_HZ)
+        return cls(spi, cs=placement.cs, sleep=wiring.sleep, **placement.options)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers import DriverError
+from drivers.contract import DataReady
 from procedures.protocols import Board
 from rig.clock import Clock, sleep_until
 
@@ -42,7 +43,7 @@ class Sampler:
         self.dt = 1.0 / self.rate_hz
         self.t0 = self.clock.now()
         self._names = list(self.board.triads)
-        self._ready = {n: getattr(tr, "data_ready", None) for n, tr in self.board.triads.items()}
+        self._ready = {n: tr.data_ready if isinstance(tr, DataReady) else None for n, tr in self.board.triads.items()}
         self._temp = self._supply = float("nan")
         self._begin()
 

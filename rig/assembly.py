@@ -1,18 +1,45 @@
-"""Build a rig from its configuration: the real one on real buses and a real table, or (`--sim`) the same
-rig from the fakes: emulated chips on fake buses, the fake turntable as a Modbus TCP server on loopback,
-the simulated world and a virtual clock. This is the only place that chooses between real and fake.
+"""Build a rig from its configuration, choosing real or fake per part: this is the only place that does.
+
+By default `rig calibrate --config` builds everything real (the drivers on /dev/i2c-N and /dev/spidevB.C, the
+table at `[turntable] url`) and `--sim` everything fake (emulated chips on fake buses, the fake turntable as a
+Modbus TCP server on loopback, the simulated world, a virtual clock). A `[sim]` section mixes them:
+
+    [sim]
+    chips = "fake"          # or "real", or a table per part: [sim.chips] mag = "fake"
+    turntable = "real"      # or "fake"
+
+Emulated chips against a real (or another process's) table follow its polled encoder angles
+(`fixtures.followed_table`); real chips against the fake table see a table served in this process. Anything
+real runs on the real clock. An analog sensor and the ADC it is read through are emulated together.
 """
 
 from __future__ import annotations
 
 import contextlib
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
-from rig.board import SensorBoard, build_board
+import click
+
+import drivers
+from drivers.contract import Wiring
+from drivers.errors import DriverError
+from drivers.gpio import open_set_reset_line
+from fixtures.followed_table import FollowedTable, PolledTrack
+from fixtures.simrig import SimulatedHardware
+from rig.board import SensorBoard, build_board, placements
 from rig.clock import Clock, RealClock, SimClock
 from rig.config import RigConfig
+from rig.errors import RigError
 from rig.turntable import TurntableLink
+
+
+class AssemblyError(click.ClickException, RigError):
+    """The rig cannot be built as configured: one message naming the device or setting, no traceback."""
+
+
+class HardwareUnavailable(AssemblyError):
+    """A bus, device node or GPIO line the configuration needs cannot be opened."""
 
 
 @dataclass
@@ -24,6 +51,7 @@ class Rig:
     truth_fn: Any = None
     world: Any = None
     fake_table: Any = None
+    sim: Any = None
     _stack: contextlib.ExitStack = field(default_factory=contextlib.ExitStack)
 
     def close(self) -> None:
@@ -36,39 +64,32 @@ class Rig:
         self.close()
 
 
-def build_real(config: RigConfig, *, open_i2c=None, open_spi=None) -> Rig:
-    """The rig on this machine's buses (I2C bus 1, SPI bus 0) and the configured turntable URL.
+def fake_parts(config: RigConfig, simulate: bool) -> set[str]:
+    """Names of the board's parts to emulate: all under --sim, none otherwise, unless [sim] chips says."""
+    parts = placements(config.board, config.chips)
+    choice = config.sim.get("chips", "fake" if simulate else "real")
+    if isinstance(choice, str):
+        fake = {p.name for p in parts} if choice == "fake" else set()
+    else:
+        default = "fake" if simulate else "real"
+        fake = {p.name for p in parts if choice.get(p.name, default) == "fake"}
+    for p in parts:                                   # an analog sensor goes with its ADC
+        if p.adc is not None and (p.name in fake or p.adc in fake):
+            fake |= {p.name, p.adc}
+    return fake
 
-    `open_i2c(bus_number)` and `open_spi(bus, device, mode, max_speed_hz)` default to the drivers' helpers
-    (smbus2, spidev); a USB bridge adapter (or a test) passes its own.
+
+def fake_turntable(config: RigConfig, simulate: bool) -> bool:
+    return config.sim.get("turntable", "fake" if simulate else "real") == "fake"
+
+
+def build_real(config: RigConfig, *, open_i2c=None, open_spi=None, open_gpio=None) -> Rig:
+    """The rig on this machine's buses (I2C bus 1, SPI bus 0 unless [chips] says) and the configured table.
+
+    `open_i2c(bus_number)`, `open_spi(bus, device, mode, max_speed_hz)` and `open_gpio(chip_path, line)` default
+    to the drivers' helpers (smbus2, spidev, gpiod); a USB bridge adapter (or a test) passes its own.
     """
-    import drivers
-
-    open_i2c = open_i2c or drivers.open_i2c
-    open_spi = open_spi or drivers.open_spi
-    clock = RealClock()
-    stack = contextlib.ExitStack()
-    bus = open_i2c(int(config.chips.get("i2c_bus", 1)))
-    stack.callback(bus.close)
-    spi_bus = int(config.chips.get("spi_bus", 0))
-
-    def spi(cs: int, mode: int, max_hz: int):
-        dev = open_spi(spi_bus, cs, mode, max_hz)
-        stack.callback(dev.close)
-        return dev
-
-    with stack:
-        board = build_board(config.board, i2c=bus, spi=spi, sleep=clock.sleep,
-                            overrides=config.chips.get(config.board))
-        link = _link(config, clock)
-        stack.enter_context(link)
-        return Rig(config, clock, link, board, _stack=stack.pop_all())
-
-
-def _link(config: RigConfig, clock: Clock, url: str | None = None) -> TurntableLink:
-    rate = config.schedule.rate_hz
-    return TurntableLink(url or config.turntable.url, profile=config.turntable.profile, clock=clock,
-                         poll_interval=config.turntable.poll_every / rate)
+    return assemble(config, simulate=False, open_i2c=open_i2c, open_spi=open_spi, open_gpio=open_gpio)
 
 
 def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: float | None = None,
@@ -77,17 +98,107 @@ def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: f
 
     `effects` (from `fixtures.world.effects`) are hidden in the world, e.g. to test the discrepancy analysis.
     """
-    from fixtures.simrig import SimulatedHardware
+    return assemble(config, simulate=True, seed=seed, trial=trial, time_scale=time_scale, effects=effects)
 
-    clock = SimClock(time_scale=time_scale)
+
+def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0, time_scale: float | None = None,
+             effects=(), open_i2c=None, open_spi=None, open_gpio=None) -> Rig:
+    fake = fake_parts(config, simulate)
+    table_fake = fake_turntable(config, simulate)
+    names = {p.name for p in placements(config.board, config.chips)}
+    all_fake = table_fake and fake == names
+    if not all_fake and time_scale not in (None, 1.0):
+        raise AssemblyError(f"{config.source}: --time-scale needs an all-simulated rig; with a real part "
+                                  f"or table ([sim] section) the rig runs on real time")
+    clock: Clock = SimClock(time_scale=time_scale) if all_fake and simulate else RealClock()
     with contextlib.ExitStack() as stack:
-        hw = SimulatedHardware(config, clock, seed=seed, trial=trial, effects=effects)
-        stack.enter_context(hw)
-        board = build_board(config.board, i2c=hw.i2c, spi=hw.spi, set_reset=hw.set_reset, sleep=clock.sleep)
-        link = _link(config, clock, hw.url)
+        hw = track = None
+        if not table_fake and fake:
+            track = PolledTrack(delay_s=_follow_delay(config))
+        if fake or table_fake:
+            hw = SimulatedHardware(config, clock, seed=seed, trial=trial, effects=effects, track=track, only=fake)
+            stack.enter_context(hw)
+        wirings = {}
+        real = names - fake
+        if real:
+            real_wiring = _real_wiring(config, clock, stack, real, open_i2c, open_spi, open_gpio)
+            wirings.update({name: real_wiring for name in real})
+        if fake:
+            sim_wiring = hw.board.wiring()
+            wirings.update({name: sim_wiring for name in fake})
+        try:
+            board = build_board(config.board, wirings, chips=config.chips)
+        except DriverError as e:
+            raise HardwareUnavailable(str(e)) from None
+        link = _link(config, clock, hw.url if table_fake else None)
         stack.enter_context(link)
-        return Rig(config, clock, link, board, world=hw.world, fake_table=hw.turntable, truth_fn=hw.truth,
+        table = FollowedTable(link, clock, track) if track is not None else link
+        return Rig(config, clock, table, board, truth_fn=hw.truth if fake else None,
+                   world=hw.world if fake else None, fake_table=hw.turntable if hw is not None else None, sim=hw,
                    _stack=stack.pop_all())
+
+
+def _follow_delay(config: RigConfig) -> float:
+    """Two poll intervals: the chips never need an angle not yet polled; the settle time must cover it."""
+    delay = 2.0 * config.turntable.poll_every / config.schedule.rate_hz
+    if config.turntable.settle_s <= delay:
+        raise AssemblyError(
+            f"{config.source}: emulated chips following a real table see its motion {delay:.3f} s late (two "
+            f"polls); [turntable] settle_s = {config.turntable.settle_s} must exceed that (or lower poll_every)")
+    return delay
+
+
+def _real_wiring(config: RigConfig, clock: Clock, stack: contextlib.ExitStack, real: set[str], open_i2c,
+                 open_spi, open_gpio) -> Wiring:
+    open_i2c = open_i2c or drivers.open_i2c
+    open_spi = open_spi or drivers.open_spi
+    open_gpio = open_gpio or open_set_reset_line
+    i2c_bus = int(config.chips.get("i2c_bus", 1))
+    spi_bus = int(config.chips.get("spi_bus", 0))
+
+    i2c = None
+    if any(p.bus == "i2c" for p in placements(config.board, config.chips) if p.name in real):
+        i2c = _open(f"I2C bus {i2c_bus} (/dev/i2c-{i2c_bus})", lambda: open_i2c(i2c_bus))
+        stack.callback(i2c.close)
+
+    def spi(cs: int, mode: int, max_hz: int) -> Any:
+        dev = _open(f"SPI bus {spi_bus} chip select {cs} (/dev/spidev{spi_bus}.{cs})",
+                    lambda: open_spi(spi_bus, cs, mode, max_hz))
+        stack.callback(dev.close)
+        return dev
+
+    def gpio(chip: str, line: int) -> Callable[[int], None]:
+        try:
+            strap = open_gpio(chip, line)
+        except DriverError as e:
+            raise HardwareUnavailable(str(e)) from None
+        except ImportError as e:
+            raise HardwareUnavailable(f"set/reset GPIO {chip} line {line}: {e}") from None
+        stack.callback(getattr(strap, "close", lambda: None))
+        return strap
+
+    return Wiring(i2c=i2c, spi=spi, gpio=gpio, sleep=clock.sleep)
+
+
+def _open(what: str, opener: Callable[[], Any]) -> Any:
+    try:
+        return opener()
+    except FileNotFoundError:
+        raise HardwareUnavailable(f"{what}: no such device; enable the bus (e.g. raspi-config), set [chips] "
+                                  f"i2c_bus / spi_bus, or emulate the parts on it ([sim] chips = \"fake\" or "
+                                  f"--sim)") from None
+    except PermissionError:
+        raise HardwareUnavailable(f"{what}: permission denied; add the user to the i2c/spi group") from None
+    except ImportError as e:
+        raise HardwareUnavailable(f"{what}: {e}") from None
+    except OSError as e:
+        raise HardwareUnavailable(f"{what}: cannot open: {e.strerror or e}") from None
+
+
+def _link(config: RigConfig, clock: Clock, url: str | None = None) -> TurntableLink:
+    rate = config.schedule.rate_hz
+    return TurntableLink(url or config.turntable.url, profile=config.turntable.profile, clock=clock,
+                         poll_interval=config.turntable.poll_every / rate)
 
 
 def truth_after_start(rig: Rig) -> dict | None:

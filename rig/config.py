@@ -11,9 +11,12 @@ from dataclasses import asdict, dataclass, field
 from importlib import resources
 from pathlib import Path
 
+from rig.board import placements
+from rig.boards import BOARDS as BOARD_SPECS
 from rig.rotations import TableGeometry
 
-BOARDS = ("bsn", "wearable")
+BOARDS = tuple(BOARD_SPECS)
+SIM_CHOICES = ("fake", "real")
 
 
 @dataclass
@@ -48,7 +51,8 @@ class RigConfig:
     gravity_mps2: float = 9.80665
     field_uT: float = 50.0
     limits: dict = field(default_factory=dict)
-    chips: dict = field(default_factory=dict)      # per-sensor overrides of the board profile
+    chips: dict = field(default_factory=dict)      # [chips]: buses and per-part overrides of the board's placements
+    sim: dict = field(default_factory=dict)        # [sim]: which parts are emulated ("fake") or real
     source: str = "<defaults>"
 
     def to_dict(self) -> dict:
@@ -77,7 +81,7 @@ def load_config(path: str | Path | None = None) -> RigConfig:
 SECTIONS = {"unit": ("serial", "board", "operator"),
             "table": ("outer_axis_world", "inner_axis_fixture", "outer_zero_deg", "inner_zero_deg"),
             "environment": ("gravity_mps2", "field_uT"),
-            "turntable": None, "schedule": None, "limits": None, "chips": None}
+            "turntable": None, "schedule": None, "limits": None, "chips": None, "sim": ("chips", "turntable")}
 
 
 def _check_keys(raw: dict, where: str) -> None:
@@ -129,7 +133,13 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
                     turntable=_section(raw, "turntable", TurntableConfig, where), geometry=geometry,
                     schedule=_section(raw, "schedule", ScheduleConfig, where),
                     gravity_mps2=float(env.get("gravity_mps2", 9.80665)), field_uT=float(env.get("field_uT", 50.0)),
-                    limits=dict(raw.get("limits", {})), chips=dict(raw.get("chips", {})), source=where)
+                    limits=dict(raw.get("limits", {})), chips=dict(raw.get("chips", {})),
+                    sim=dict(raw.get("sim", {})), source=where)
+    try:
+        placements(cfg.board, cfg.chips)
+        check_sim(cfg.board, cfg.sim)
+    except ValueError as e:
+        raise ValueError(f"{where}: {e}") from None
     if not 9 <= cfg.schedule.orientations <= 64:
         raise ValueError(f"{where}: [schedule] orientations = {cfg.schedule.orientations}; use 10 to 20 "
                          "(9..64 allowed: the ellipsoid needs 9)")
@@ -159,4 +169,22 @@ def config_from_dict(d: dict) -> RigConfig:
                      turntable=TurntableConfig(**d.get("turntable", {})), geometry=geometry,
                      schedule=ScheduleConfig(**d.get("schedule", {})), gravity_mps2=d.get("gravity_mps2", 9.80665),
                      field_uT=d.get("field_uT", 50.0), limits=d.get("limits", {}), chips=d.get("chips", {}),
-                     source=d.get("source", "<session metadata>"))
+                     sim=d.get("sim", {}), source=d.get("source", "<session metadata>"))
+
+
+def check_sim(board: str, sim: dict) -> None:
+    """[sim] chips = "fake" | "real" | {part = "fake" | "real"}, turntable = "fake" | "real"."""
+    table = sim.get("turntable")
+    if table is not None and table not in SIM_CHOICES:
+        raise ValueError(f"[sim] turntable = {table!r}; allowed: {list(SIM_CHOICES)}")
+    chips = sim.get("chips")
+    if chips is None or chips in SIM_CHOICES:
+        return
+    if not isinstance(chips, dict):
+        raise ValueError(f"[sim] chips = {chips!r}; allowed: {list(SIM_CHOICES)} or a table part = \"fake\"|\"real\"")
+    names = BOARD_SPECS[board].names
+    for part, choice in chips.items():
+        if part not in names:
+            raise ValueError(f"[sim.chips] {part}: the {board} board has no such part; parts: {list(names)}")
+        if choice not in SIM_CHOICES:
+            raise ValueError(f"[sim.chips] {part} = {choice!r}; allowed: {list(SIM_CHOICES)}")

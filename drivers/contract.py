@@ -1,0 +1,120 @@
+"""What every part on a sensor board promises, declared rather than discovered.
+
+A `Part` is anything placed on a board (an ADC, a sensor chip); a `Sensor` is a part that measures one triad.
+Optional abilities are declared by inheriting a capability class, so the sampler and the board ask
+`isinstance(part, DataReady)` of a declaration instead of probing attributes:
+
+- `DataReady`: a flag that says an unread sample is waiting (the sampler waits on it and aligns its ticks).
+- `Thermometer`: a die temperature (the board's temperature column).
+- `SupplyMonitor`: the sensor supply voltage.
+
+A part is built from its `Placement` (where it sits, declared as data in a board) and a `Wiring` (the open
+buses of this rig, real or fake) by its class method `attach`; a chip family registers its classes in
+`drivers.registry`.
+"""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, Callable, ClassVar, Mapping
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where one part sits on a board: `bus` is "i2c", "spi" or "adc" (analog, read through an ADC part)."""
+
+    name: str                                   # the part's name on the board: "accel", "imu", "adc"
+    chip: str                                   # key in drivers.registry.CHIPS
+    bus: str
+    address: int | None = None                  # I2C 7-bit address
+    cs: int | tuple[int, ...] | None = None     # SPI chip select(s)
+    adc: str | None = None                      # name of the ADC part an analog sensor is read through
+    channels: tuple[int, ...] | None = None     # ADC channels of an analog sensor
+    gpio: tuple[str, int] | None = None         # (gpiochip path, line offset) of a control line
+    options: Mapping[str, Any] = field(default_factory=dict)   # chip settings passed to the driver
+
+
+@dataclass
+class Wiring:
+    """The open buses a board's parts are attached to; real (`/dev/...`) or fake (emulated chips)."""
+
+    i2c: Any = None                                             # smbus2.SMBus-like
+    spi: Callable[[int, int, int], Any] | None = None           # opener (chip select, mode, max Hz) -> SpiDev
+    gpio: Callable[[str, int], Callable[[int], None]] | None = None   # (chip, line) -> set/reset pulse
+    sleep: Callable[[float], None] = time.sleep
+    parts: dict[str, "Part"] = field(default_factory=dict)     # parts already built on this board
+
+    def bus_for(self, placement: Placement, spi_mode: int, spi_max_hz: int) -> Any:
+        """The I2C bus, or the SPI device on the placement's chip select."""
+        if placement.bus == "i2c":
+            if self.i2c is None:
+                raise ValueError(f"{placement.name} ({placement.chip}) sits on I2C but this rig has no I2C bus")
+            return self.i2c
+        if placement.bus == "spi":
+            if self.spi is None or placement.cs is None:
+                raise ValueError(f"{placement.name} ({placement.chip}) sits on SPI without a chip select")
+            return self.spi(int(placement.cs), spi_mode, spi_max_hz)
+        raise ValueError(f"{placement.name} ({placement.chip}) cannot sit on bus {placement.bus!r}")
+
+    def adc_for(self, placement: Placement) -> "Part":
+        adc = self.parts.get(placement.adc or "")
+        if adc is None:
+            raise ValueError(f"{placement.name} ({placement.chip}) is read through ADC part {placement.adc!r}, "
+                             f"which is not placed before it on this board")
+        return adc
+
+
+class Part(ABC):
+    """A part on a board: started once, described in the session metadata."""
+
+    chip: ClassVar[str]
+    BUSES: ClassVar[tuple[str, ...]] = ()           # buses the part can sit on
+    SENSES: ClassVar[tuple[str, ...]] = ()          # triads it measures: "accel", "gyro", "mag"
+    OPTIONS: ClassVar[tuple[str, ...]] = ()         # chip settings a board or [chips.<part>] may give
+
+    @abstractmethod
+    def start(self) -> None:
+        """Check identity, configure, wait until the first valid sample exists."""
+
+    @abstractmethod
+    def settings(self) -> dict:
+        """Snapshot for session metadata; `scale` converts counts to the physical unit."""
+
+    @classmethod
+    @abstractmethod
+    def attach(cls, placement: Placement, wiring: Wiring) -> "Part":
+        """Build the part where `placement` says, on `wiring`'s buses."""
+
+    def sensor(self, kind: str) -> "Sensor":
+        """The triad `kind` this part measures (a multi-sensor chip returns one of its views)."""
+        if kind in self.SENSES and isinstance(self, Sensor):
+            return self
+        raise ValueError(f"{self.chip} does not measure {kind!r}; it measures {list(self.SENSES) or 'nothing'}")
+
+
+class Sensor(Part):
+    """A part that measures one triad."""
+
+    @abstractmethod
+    def read_raw(self) -> tuple[int, int, int]:
+        """One sample: signed counts per axis, in the chip's axes."""
+
+
+class DataReady(ABC):
+    @abstractmethod
+    def data_ready(self) -> bool:
+        """True while an unread sample is waiting."""
+
+
+class Thermometer(ABC):
+    @abstractmethod
+    def read_temperature(self) -> float:
+        """Die temperature in degC."""
+
+
+class SupplyMonitor(ABC):
+    @abstractmethod
+    def read_supply_v(self) -> float:
+        """Sensor supply in volts."""
