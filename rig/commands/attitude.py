@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from rig.commands.exits import CommandError, Exit, command_error, plain
+
 MAG_CHOICE = click.Choice(["vector", "heading"])
 
 
@@ -20,7 +22,14 @@ NO_STILL_HELP = "Integrate the gyro on every step (the paper's filter) instead o
 
 
 def _fail(e: Exception) -> click.ClickException:
-    return click.ClickException(str(e))
+    """A RigError with its exit code; any other ValueError here is a number the data cannot support."""
+    from rig.errors import RigError
+
+    if isinstance(e, RigError):
+        return command_error(e)
+    if isinstance(e, OSError) and e.strerror:
+        return CommandError(f"{e.filename + ': ' if e.filename else ''}{e.strerror}")
+    return CommandError(plain(str(e)))
 
 
 @click.command()
@@ -73,7 +82,8 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
 @click.command()
 @click.option("--sim", is_flag=True, help="Run on the built-in simulated rig.")
 @click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), help="Rig TOML file.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Simulated unit and noise (with --sim).")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
+              help="Simulated unit and noise (with --sim).")
 @click.option("--calibration", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               help="Use this calibration.json instead of running a calibration session first.")
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True,
@@ -85,6 +95,7 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
 def validate(sim, config_path, seed, calibration, method, mag_measurement, out, no_plots, no_still_detection):
     """Calibrate, run the dynamic trajectory on the same unit, and write the Table III attitude report."""
     from procedures.validation import validate_on_rig
+    from rig.commands.calibrate import build_rig, stop_signals_raise
     from rig.config import load_config
     from rig.errors import RigError
 
@@ -92,7 +103,12 @@ def validate(sim, config_path, seed, calibration, method, mag_measurement, out, 
         raise click.UsageError("give --sim (simulated rig) or --config rig.toml (real rig)")
     try:
         config = load_config(config_path)
-        validate_on_rig(out, config, sim=sim, seed=seed, calibration=calibration, method=method,
-                        plots=not no_plots, settings=_settings(mag_measurement, no_still_detection), echo=click.echo)
-    except (RigError, ValueError) as e:
+    except ValueError as e:
+        raise CommandError(plain(str(e)), Exit.BAD_INPUT) from None
+    try:
+        with stop_signals_raise():
+            validate_on_rig(out, config, sim=sim, seed=seed, calibration=calibration, method=method,
+                            plots=not no_plots, settings=_settings(mag_measurement, no_still_detection),
+                            echo=click.echo, build_rig=build_rig)
+    except (RigError, ValueError, OSError) as e:
         raise _fail(e) from None

@@ -20,6 +20,10 @@ MOTION_STD_FLOOR_COUNTS = 1.0
 # the mean of quantised samples without noise to dither them can be off anyway, was turning.
 GYRO_MEAN_SIGMAS = 6.0
 GYRO_MEAN_FLOOR_COUNTS = 0.5
+# A move is not integrated across a hole in its samples longer than this many of its median sample intervals
+# (and MOVE_GAP_MIN_S): the rotation in the hole is unknown. Nor across a recorded resume (a clock gap).
+MOVE_GAP_INTERVALS = 10.0
+MOVE_GAP_MIN_S = 0.2
 
 
 def vec(v) -> str:
@@ -151,10 +155,15 @@ def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list
     y_all = session.raw["gyro"]
     rails = rail_codes(y_all)
     out = []
+    resumes = resume_times(session)
     for m in session.moves("gyro", settle_s):
         end = next_step.get(m.step)
         if m.step in excluded or end in excluded:
             warnings.append(f"gyro: move {m.step} -> {end} not used (touches an excluded hold)")
+            continue
+        gap = move_gap(m, resumes)
+        if gap:
+            warnings.append(f"gyro: move {m.step} -> {end} not used: it {gap}")
             continue
         hit = [(axis, rail) for axis, rail in rails if piles_at(m.y[:, axis], rail, min_count=2)]
         if hit:
@@ -164,3 +173,27 @@ def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list
             continue
         out.append(m.trimmed_to_motion(rest=rest, still_counts=still_counts))
     return out
+
+
+def resume_times(session: SessionData) -> list[float]:
+    """Session times at which a resumed run started (the `resumes` the session store records)."""
+    out = []
+    for mark in session.meta.get("resumes") or []:
+        try:
+            out.append(float(mark["t_s"]))
+        except (KeyError, TypeError, ValueError):
+            continue
+    return sorted(t for t in out if np.isfinite(t))
+
+
+def move_gap(m: MoveStream, resumes: list[float]) -> str | None:
+    """Why a move stream cannot be integrated as one (a resume inside it, a hole in its samples), or None."""
+    for t in resumes:
+        if m.t[0] < t <= m.t[-1]:
+            return f"spans the resume at session time {t:.3f} s (a clock gap)"
+    dt = np.diff(m.t)
+    if dt.size >= 3:
+        worst = int(np.argmax(dt))
+        if dt[worst] > max(MOVE_GAP_MIN_S, MOVE_GAP_INTERVALS * float(np.median(dt))):
+            return f"has no samples for {dt[worst]:.3g} s after {m.t[worst]:.3f} s"
+    return None
