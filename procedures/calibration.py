@@ -12,7 +12,7 @@ from typing import Callable
 
 import numpy as np
 
-from procedures.acquisition import Recording, Sampler, hold_has_motion, log_read_errors
+from procedures.acquisition import Recording, Sampler, hold_has_motion, log_outliers, log_read_errors
 from procedures.planning import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles
@@ -131,6 +131,7 @@ def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGe
                               table_deg=table_deg, commanded_deg=(target.outer_deg, target.inner_deg),
                               measured_deg=measured, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, attempt=attempt)
             log_read_errors(store, sampler)
+            log_outliers(store, step, rec)
             return rec
         store.log_event("hold-repeated", f"hold {step} attempt {attempt}: {moved}", float(rec.t[-1]))
     raise HoldFailed(f"hold {step} kept moving in all {m.max_hold_attempts} attempts (see the session's "

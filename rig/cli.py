@@ -64,8 +64,9 @@ def guarded(run, args=None) -> int:
         click.echo("aborted", err=True)
         return 128 + signum
     except click.ClickException as e:
-        from rig.commands.exits import CommandError, Exit
+        from rig.commands.exits import CommandError, Exit, plain
 
+        e.message = plain(e.message)
         e.show()
         if e.exit_code == 1 and not isinstance(e, CommandError):
             return Exit.FAILED

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.errors import CalibrationError
+from rig.outliers import OUTLIER_SIGMAS
 from rig.session_data import HoldStats, MoveStream, SessionData
 
 # A hold whose noise (norm of the per-axis std) exceeds this multiple of the median hold's, plus
@@ -51,7 +52,8 @@ def warn_partial_nan(session: SessionData, warnings: list[str]) -> None:
 
 
 def warn_empty_holds(session: SessionData, holds: dict[str, HoldStats], settle_s: float, warnings: list[str]) -> None:
-    """A hold without samples of a sensor (all NaN, or shorter than the settling time) is named."""
+    """A hold without samples of a sensor (all NaN, or shorter than the settling time) is named, and so are
+    the isolated outlier samples set aside in a hold (`rig.outliers`), with their count."""
     raw_steps = [j for j, _ in session.hold_rows(0.0)]
     settled = {j for j, _ in session.hold_rows(settle_s)}
     for j in raw_steps:
@@ -61,6 +63,10 @@ def warn_empty_holds(session: SessionData, holds: dict[str, HoldStats], settle_s
         missing = sorted(settled - set(h.step.tolist()))
         if missing:
             warnings.append(f"{name}: no samples (NaN) in the hold(s) of step {', '.join(map(str, missing))}; not used")
+        if h.outliers is not None and h.outliers.any():
+            where = ", ".join(f"{int(n)} in step {int(j)}" for j, n in zip(h.step, h.outliers) if n)
+            warnings.append(f"{name}: {int(h.outliers.sum())} isolated outlier sample(s) set aside ({where}): "
+                            f"further than {OUTLIER_SIGMAS:g} robust sigmas from their hold's median")
 
 
 def find_bad_holds(session: SessionData, holds: dict[str, HoldStats], settle_s: float) -> dict[int, str]:
@@ -145,7 +151,7 @@ def without_steps(h: HoldStats, excluded: dict[int, str]) -> HoldStats:
     keep = ~np.isin(h.step, list(excluded))
     sel = lambda a: None if a is None else a[keep]  # noqa: E731
     return HoldStats(h.step[keep], h.mean[keep], h.std[keep], h.count[keep], h.R[keep], h.t_start[keep],
-                     h.t_end[keep], sel(h.temp_c), sel(h.vsupply_v))
+                     h.t_end[keep], sel(h.temp_c), sel(h.vsupply_v), sel(h.outliers))
 
 
 def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list[str], settle_s: float = 0.0,
