@@ -1,6 +1,6 @@
 """The `rig` command line. Subcommands live beside what they drive and are imported when used.
 
-Every command ends with an exit code of the table in `rig.commands.exits` (README, "Exit codes"), and none
+Every command ends with an exit code of the table in `rig.exits` (README, "Exit codes"), and none
 prints a traceback: an unexpected exception is reported in one line, its traceback written to a file.
 """
 
@@ -64,7 +64,7 @@ def guarded(run, args=None) -> int:
         click.echo("aborted", err=True)
         return 128 + signum
     except click.ClickException as e:
-        from rig.commands.exits import CommandError, Exit, plain
+        from rig.exits import CommandError, Exit, plain
 
         e.message = plain(e.message)
         e.show()
@@ -87,7 +87,7 @@ def _crash(exc: BaseException, args) -> int:
     import tempfile
     import traceback
 
-    from rig.commands.exits import Exit, command_error
+    from rig.exits import Exit, command_error
 
     from rig.errors import RigError
 

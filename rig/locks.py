@@ -134,9 +134,16 @@ def _read_holder(fd: int) -> dict:
         return {}
 
 
+def _command_line() -> str:
+    if not sys.argv:
+        return "python"
+    program = Path(sys.argv[0])
+    name = "rig" if program.parts[-2:] == ("rig", "cli.py") else program.name
+    return " ".join([name, *sys.argv[1:]])[:200]
+
+
 def _write_holder(fd: int) -> None:
-    holder = {"pid": os.getpid(), "host": socket.gethostname(),
-              "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]])[:200] if sys.argv else "python",
+    holder = {"pid": os.getpid(), "host": socket.gethostname(), "command": _command_line(),
               "since": dt.datetime.now().astimezone().isoformat(timespec="seconds")}
     data = (json.dumps(holder) + "\n").encode()
     with contextlib.suppress(OSError):

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from rig.commands.exits import CommandError, Exit, command_error, plain
+from rig.exits import CommandError, Exit, command_error, plain
 
 MAG_CHOICE = click.Choice(["vector", "heading"])
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from rig.commands.exits import CommandError, Exit, aborted, code_for, command_error, plain
+from rig.exits import CommandError, Exit, FiniteFloat, aborted, code_for, command_error, plain
 from rig.config import RigConfig, load_config
 
 
@@ -156,14 +156,14 @@ def show_outcome(outcome, echo=click.echo) -> int:
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output folder.")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
               help="Simulated unit and noise (with --sim).")
-@click.option("--time-scale", type=click.FloatRange(0, 1e6, min_open=True), default=None,
+@click.option("--time-scale", type=FiniteFloat(0, 1e6, low_open=True), default=None,
               help="Run the simulated rig at X times real time.")
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True,
               help="Accelerometer/magnetometer estimator.")
 @click.option("--orientations", type=click.IntRange(9, 64), default=None, help="Override the schedule size.")
-@click.option("--gravity", type=click.FloatRange(1.0, 30.0), default=None,
+@click.option("--gravity", type=FiniteFloat(1.0, 30.0), default=None,
               help="Local gravity in m/s^2 for imu_tk data (default 9.80665; interchange sessions carry their own).")
-@click.option("--settle-s", type=click.FloatRange(0.0, 3600.0), default=0.5, show_default=True,
+@click.option("--settle-s", type=FiniteFloat(0.0, 3600.0), default=0.5, show_default=True,
               help="With --from: seconds dropped at the start of each hold (settling).")
 @click.option("--gyro-samples", type=click.Choice(["auto", "point", "mean"]), default="auto", show_default=True,
               help="With --from: a gyro sample is the rate at its time stamp (point) or its mean over the sample "

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import click
 
-from rig.commands.exits import CommandError, Exit, command_error, plain
+from rig.exits import CommandError, Exit, command_error, plain
 
 SENSORS = ("accel", "gyro", "mag")
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from rig.commands.exits import CommandError, Exit, command_error
+from rig.exits import CommandError, Exit, command_error
 
 EXPORTED = ("meta.json", "samples.csv")
 

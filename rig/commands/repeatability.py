@@ -19,7 +19,7 @@ import click
 def repeatability(sim, config_path, trials, out, seed, method, orientations):
     """Run TRIALS sessions on one unit and report the mean and standard deviation of B and H (paper Fig. 7)."""
     from rig.commands.calibrate import _config, run_session_to
-    from rig.commands.exits import Exit
+    from rig.exits import Exit
     from rig.report import write_repeatability_report
 
     if not sim and not config_path:

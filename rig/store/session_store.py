@@ -1,11 +1,11 @@
 """The crash-safe, append-only store of one calibration session (`folder/session.sqlite`).
 
-SQLite in WAL mode with `synchronous=FULL`, one transaction per hold or move. Why FULL: in WAL mode
+SQLite in WAL mode with `synchronous=FULL`, one transaction per hold (with the move that led to it). Why FULL: in WAL mode
 NORMAL is already safe against a killed process, but a commit made under NORMAL can still roll back
 after a power cut or kernel crash, because the WAL is synced only at checkpoints. A lab bench loses
 power; FULL syncs the WAL at every commit, and with one commit per 5 s hold the fsync cost is
 irrelevant (benchmarks/store_write_load.py measures it). So a crash of any kind loses at most the
-hold or move in progress.
+hold in progress and the move into it.
 
 A full disk must not leave a session marked "running": the store keeps a small reserve file beside the
 session (`.space-reserve`, written when the session is created or reopened for writing) and gives its space
@@ -56,6 +56,7 @@ class SessionStore:
     def __init__(self, path: Path, conn: sqlite3.Connection) -> None:
         self.path = path
         self._conn: sqlite3.Connection | None = conn
+        self._pending_move: tuple[int, dict[str, np.ndarray]] | None = None
 
     # -- opening ---------------------------------------------------------------------------------
     @classmethod
@@ -184,13 +185,17 @@ class SessionStore:
                     table_deg: np.ndarray, commanded_deg: tuple[float, float], measured_deg: tuple[float, float],
                     temp_c: np.ndarray | None = None, vsupply_v: np.ndarray | None = None,
                     attempt: int = 1) -> None:
-        """Commit one hold (all samples, per-channel summary rows) in one transaction."""
+        """Commit one hold (all samples, per-channel summary rows), with the move that led to it, in one
+        transaction."""
         where = f"{self.path}: append_hold(step={step}, attempt={attempt})"
         commanded = _angle_pair(where, "commanded_deg", commanded_deg)
         measured = _angle_pair(where, "measured_deg", measured_deg)
         data = checked_arrays(where, t, samples, q_ref, table_deg, temp_c, vsupply_v)
         stats = hold_stat_rows(data, self.metadata)
+        move, self._pending_move = self._pending_move, None
         with self._transaction() as db:
+            if move is not None:
+                self._insert_segment(db, "move", move[0], 1, move[1], (None,) * 4)
             seg = self._insert_segment(db, "hold", step, attempt, data, commanded + measured)
             db.executemany("INSERT INTO hold_stat (segment_id, channel, mean, std, count) VALUES (?, ?, ?, ?, ?)",
                            [(seg, *row) for row in stats])
@@ -198,11 +203,19 @@ class SessionStore:
     def append_move(self, step: int, *, t: np.ndarray, samples: dict[str, np.ndarray], q_ref: np.ndarray,
                     table_deg: np.ndarray, temp_c: np.ndarray | None = None,
                     vsupply_v: np.ndarray | None = None) -> None:
-        """Commit the full-rate stream of the move leaving orientation `step`, in one transaction."""
+        """The full-rate stream of the move leaving orientation `step`, checked now and committed with the hold
+        it leads to (`append_hold`), in the same transaction.
+
+        A move is of use only with the hold that ends it; committed alone, an interruption before that hold
+        would leave it in the file, and the resumed run, which records the move again, would store it twice.
+        """
         where = f"{self.path}: append_move(step={step})"
         data = checked_arrays(where, t, samples, q_ref, table_deg, temp_c, vsupply_v)
-        with self._transaction() as db:
-            self._insert_segment(db, "move", step, 1, data, (None,) * 4)
+        last = self.last_time()
+        if last is not None and data["t"][0] < last:
+            raise ValueError(f"{where}: t starts at {float(data['t'][0])!r} s, before the end of the last committed "
+                             f"segment ({last!r} s); session time must not run backwards")
+        self._pending_move = (int(step), data)
 
     def log_event(self, kind: str, message: str, t: float | None = None) -> None:
         with self._transaction() as db:
@@ -230,6 +243,8 @@ class SessionStore:
 
     # -- closing ---------------------------------------------------------------------------------
     def close(self) -> None:
+        """Close the file; a move not yet followed by its hold is not written."""
+        self._pending_move = None
         if self._conn is not None:
             self._conn.close()
             self._conn = None

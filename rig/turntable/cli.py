@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import click
 
-from rig.commands.exits import CommandError, Exit, code_for, plain
+from rig.exits import CommandError, Exit, FiniteFloat, code_for, plain
 from rig.errors import RigError
 from rig.turntable.client import TurntableLink
 from rig.turntable.errors import EStopActive, TurntableError
@@ -104,7 +104,8 @@ ProfileOrURLError = ValueError      # a malformed profile or URL (ProfileError a
               help="tcp://HOST:PORT, rtu:///dev/ttyUSB0?baud=115200&parity=N, or rtu+socket://HOST:PORT")
 @click.option("--profile", type=click.Path(dir_okay=False), default=None,
               help="register-map profile (TOML); default: the packaged tt-map/1")
-@click.option("--timeout", type=float, default=1.0, show_default=True, help="per-request timeout, s")
+@click.option("--timeout", type=FiniteFloat(0, 600, low_open=True), default=1.0, show_default=True,
+              help="per-request timeout, s")
 @click.pass_context
 def table(ctx: click.Context, url: str, profile: str | None, timeout: float) -> None:
     """Drive the two-axis Modbus turntable."""
@@ -123,11 +124,11 @@ def status(ctx: click.Context) -> None:
 
 
 @table.command(cls=NumbersAsArguments)
-@click.argument("outer", type=float)
-@click.argument("inner", type=float)
-@click.option("--speed", type=float, default=30.0, show_default=True, help="deg/s")
-@click.option("--accel", type=float, default=60.0, show_default=True, help="deg/s^2")
-@click.option("--tolerance", type=float, default=0.01, show_default=True, help="deg")
+@click.argument("outer", type=FiniteFloat())
+@click.argument("inner", type=FiniteFloat())
+@click.option("--speed", type=FiniteFloat(0, low_open=True), default=30.0, show_default=True, help="deg/s")
+@click.option("--accel", type=FiniteFloat(0, low_open=True), default=60.0, show_default=True, help="deg/s^2")
+@click.option("--tolerance", type=FiniteFloat(0, low_open=True), default=0.01, show_default=True, help="deg")
 @click.pass_context
 def move(ctx: click.Context, outer: float, inner: float, speed: float, accel: float, tolerance: float) -> None:
     """Enable and move both axes to OUTER INNER degrees (negative angles as they are: 45 -30); servos stay on."""
@@ -139,7 +140,8 @@ def move(ctx: click.Context, outer: float, inner: float, speed: float, accel: fl
 
 
 @table.command()
-@click.option("--timeout", "home_timeout", type=float, default=120.0, show_default=True, help="s")
+@click.option("--timeout", "home_timeout", type=FiniteFloat(0, 3600, low_open=True), default=120.0,
+              show_default=True, help="s")
 @click.pass_context
 def home(ctx: click.Context, home_timeout: float) -> None:
     """Enable and home both axes; servos stay on."""

@@ -1,4 +1,5 @@
-"""The exit codes of every `rig` command (the table in README, "Exit codes") and how errors map onto them.
+"""The exit codes of every `rig` command (the table in README, "Exit codes"), how errors map onto them, and
+the option types that refuse bad numbers at the command line.
 
     0    done; a session complete with verdict PASS (or no limits to check)
     1    done, but a check failed: the calibration's verdict is FAIL (`rig plan`: the schedule is blind)
@@ -59,4 +60,31 @@ def plain(text: str) -> str:
     """Messages built with repr() of numpy scalars read 'np.float64(1.5)'; a user wants '1.5'."""
     import re
 
-    return re.sub(r"np\.(?:float|int|uint|bool_)\d*\(([^()]*)\)", r"\1", text)
+    text = re.sub(r"np\.(?:float|int|uint|complex|str_|bool_?)\d*\(([^()]*)\)", r"\1", text)
+    return re.sub(r"np\.(True|False)_", r"\1", text)
+
+
+class FiniteFloat(click.ParamType):
+    """A finite number, optionally within [low, high] (open at an end with low_open / high_open): click's
+    FloatRange lets NaN through, and `--time-scale nan` must be refused here, not deep inside a session."""
+
+    name = "number"
+
+    def __init__(self, low: float | None = None, high: float | None = None, *, low_open: bool = False,
+                 high_open: bool = False) -> None:
+        self.low, self.high, self.low_open, self.high_open = low, high, low_open, high_open
+
+    def convert(self, value, param, ctx):
+        import math
+
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        if self.low is not None and (number < self.low or (self.low_open and number == self.low)):
+            self.fail(f"{value} must be {'>' if self.low_open else '>='} {self.low:g}", param, ctx)
+        if self.high is not None and (number > self.high or (self.high_open and number == self.high)):
+            self.fail(f"{value} must be {'<' if self.high_open else '<='} {self.high:g}", param, ctx)
+        return number
