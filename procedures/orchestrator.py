@@ -32,6 +32,9 @@ from procedures.session import check_plan, plan_for, record, session_metadata, w
 from rig.config import RigConfig, config_from_dict
 from rig.errors import Busy, CalibrationError, InputError, RigError, signal_name
 from rig.locks import session_lock, table_lock
+from rig.pipeline import calibrate_session
+from rig.pipeline.writing import write_session_calibration
+from rig.report import evaluate, write_report
 from rig.store import SESSION_FILE, NotASession, SessionStore
 from rig.store.session_store import FINISHED_STATUSES
 
@@ -191,10 +194,6 @@ class SessionOrchestrator:
     # -- finishing -------------------------------------------------------------------------------
     def _finish(self, store: SessionStore, n_holds: int) -> Outcome:
         """Calibrate what is recorded, write calibration.json and the report, record status and verdict."""
-        from rig.pipeline import calibrate_session
-        from rig.pipeline.writing import write_session_calibration
-        from rig.report import evaluate, write_report
-
         meta = store.metadata
         holds = len(store.completed_holds())
         try:

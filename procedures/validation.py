@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from procedures.orchestrator import RigSpec, SessionOrchestrator
 from rig.attitude.compare import AXES
 from rig.attitude.evaluate import Row, SessionRows, peer_rows, session_rows, ukf_row
 from rig.attitude.peers import PEERS
@@ -184,7 +185,6 @@ def validate_on_rig(out_dir: Path, config, *, sim: bool = True, seed: int = 0, c
     fixes its sensor errors; the trajectory uses another noise trial). `build_rig(config, RigSpec)` makes
     the rig (the command passes its factory; by default `rig.assembly`'s).
     """
-    from procedures.orchestrator import RigSpec, SessionOrchestrator
     from rig.io.calibration_json import read_calibration, triads_from_calibration
     from rig.io.session_csv import write_session
 

@@ -53,6 +53,8 @@ def code_for(exc: BaseException) -> int:
 
 def command_error(exc: BaseException, prefix: str = "") -> CommandError:
     """`exc` as a CommandError with its message (plain numbers, not numpy reprs) and its exit code."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return CommandError(prefix + (f"{exc.filename}: " if exc.filename else "") + exc.strerror, code_for(exc))
     return CommandError(prefix + plain(str(exc)), code_for(exc))
 
 

@@ -44,15 +44,16 @@ def _fail(e: Exception) -> click.ClickException:
 @click.option("--no-peers", is_flag=True, help="Skip the ahrs Madgwick/Mahony/EKF peers.")
 @click.option("--no-still-detection", is_flag=True, help=NO_STILL_HELP)
 def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers, no_still_detection):
-    """Run the quaternion UKF on an interchange session with motion and compare with its reference."""
+    """Run the quaternion UKF on a session with motion (the rig's folder or an interchange one) and compare with
+    its reference."""
     from procedures.validation import nominal_calibration, table3_markdown, validate_session, write_outputs
     from rig.attitude.peers import PEERS
     from rig.errors import RigError
+    from rig.commands.sessions import read_any_session
     from rig.io.calibration_json import read_calibration, triads_from_calibration
-    from rig.io.session_csv import read_session
 
     try:
-        session = read_session(session_dir)
+        session = read_any_session(session_dir)
         doc = read_calibration(calibration)
         ours = triads_from_calibration(doc)
         if session.field_uT is None and doc.get("field_uT") is not None:

@@ -148,7 +148,7 @@ def show_outcome(outcome, echo=click.echo) -> int:
 @click.option("--sim", is_flag=True, help="Run on the built-in simulated rig (fake chips, fake turntable).")
 @click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), help="Rig TOML file.")
 @click.option("--from", "from_dir", type=click.Path(exists=True, file_okay=False),
-              help="Calibrate a recorded interchange session instead of running one.")
+              help="Calibrate a recorded session (the rig's own folder or an interchange one) instead of running one.")
 @click.option("--format", "fmt", type=click.Choice(["interchange", "imu_tk"]), default="interchange",
               show_default=True)
 @click.option("--accel", type=click.Path(exists=True, dir_okay=False), help="imu_tk accelerometer file.")
@@ -177,9 +177,16 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
 
         if fmt == "imu_tk" and not (accel and gyro):
             raise click.UsageError("--format imu_tk needs --accel FILE and --gyro FILE")
+        from rig.commands.sessions import is_rig_session
         from rig.errors import RigError
 
         try:
+            if fmt == "interchange" and is_rig_session(from_dir):
+                if click.get_current_context().get_parameter_source("settle_s").name == "DEFAULT":
+                    settle_s = 0.0                  # the rig records a hold once the table has settled
+                _calibrate_rig_folder(Path(from_dir), out, method=method, settle_s=settle_s, gravity=gravity,
+                                      gyro_samples=gyro_samples)
+                return
             calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
                                settle_s=settle_s, gravity=gravity, gyro_samples=gyro_samples, echo=click.echo)
         except (RigError, OSError) as e:
@@ -194,6 +201,30 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
     config = _config(config_path, orientations)
     sys.exit(run_session_to(out, config, sim=sim, seed=seed, time_scale=time_scale, method=method,
                             progress=not no_progress))
+
+
+def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: float, gravity: float | None,
+                          gyro_samples: str) -> None:
+    """`calibrate --from` on the rig's own session folder (no export needed): the same pipeline and writer."""
+    from rig.commands.sessions import read_any_session
+    from rig.pipeline import calibrate_session
+    from rig.pipeline.writing import write_session_calibration
+
+    session = read_any_session(folder)
+    if gravity is not None:
+        session.gravity = float(gravity)
+    result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples)
+    unit = session.meta.get("unit") or {}
+    path = write_session_calibration(out, result, gravity=session.gravity, field_uT=session.field_uT,
+                                     unit_serial=unit.get("serial"), board=unit.get("board"),
+                                     extra={"source": {"format": "rig-session-sqlite/1", "path": str(folder),
+                                                       "method": method, "settle_s": settle_s,
+                                                       "gyro_samples": gyro_samples}})
+    for line in result.summary:
+        click.echo(line)
+    for w in result.warnings:
+        click.echo(f"warning: {w}")
+    click.echo(f"wrote {path}")
 
 
 def _config(path, orientations) -> RigConfig:
