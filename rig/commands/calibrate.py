@@ -128,6 +128,8 @@ def show_outcome(outcome, echo=click.echo) -> int:
     if outcome.status == "failed":
         echo(f"session failed: {plain(outcome.reason)} ({outcome.holds}/{outcome.n_holds} holds are kept in {out}; "
              f"`rig resume {out}` continues)", err=True)
+        if outcome.error_log is not None:            # not a known fault: a bug, its traceback in the log
+            return Exit.INTERNAL
         return code_for(outcome.error) if outcome.error is not None else Exit.FAILED
     for line in outcome.summary:
         echo(line)
