@@ -188,7 +188,7 @@ class SessionOrchestrator:
             return Outcome(self.folder, "aborted", reason, holds=len(store.completed_holds()), n_holds=n,
                            signum=signum)
         except Exception as exc:
-            return self._failed(store, exc, n)
+            return self._failed(store, exc, n, url=getattr(rig.table, "url", None))
         return None
 
     # -- finishing -------------------------------------------------------------------------------
@@ -214,6 +214,11 @@ class SessionOrchestrator:
             report = write_report(self.folder, session, result.sensors, gravity=session.gravity,
                                   field_uT=session.field_uT, truth=truth, limits=limits, evaluation=evaluation,
                                   metadata={**meta, "status": status, "status_reason": reason, "verdict": verdict})
+        except KeyboardInterrupt as exc:
+            signum = getattr(exc, "signum", signal.SIGINT)
+            reason = self._mark(store, "aborted", f"stopped by {signal_name(signum)} while calibrating; every hold is "
+                                "recorded, `rig resume` calibrates them")
+            return Outcome(self.folder, "aborted", reason, holds=holds, n_holds=n_holds, signum=signum)
         except CalibrationError as exc:
             return self._failed(store, exc, n_holds, prefix="the recorded session cannot be calibrated: ")
         except Exception as exc:
@@ -226,10 +231,11 @@ class SessionOrchestrator:
                        written=[cal_path, report])
 
     # -- status ----------------------------------------------------------------------------------
-    def _failed(self, store: SessionStore | None, exc: BaseException, n_holds: int, prefix: str = "") -> Outcome:
+    def _failed(self, store: SessionStore | None, exc: BaseException, n_holds: int, prefix: str = "",
+                url: str | None = None) -> Outcome:
         known = isinstance(exc, (RigError, OSError)) or type(exc).__module__.startswith("drivers")
         log = None if known else self._write_traceback(exc)
-        reason = prefix + describe(exc) + (f" (traceback in {log})" if log else "")
+        reason = prefix + describe(exc, url) + (f" (traceback in {log})" if log else "")
         holds = 0
         if store is not None:
             reason = self._mark(store, "failed", reason)
@@ -258,13 +264,16 @@ class SessionOrchestrator:
         return path
 
 
-def describe(exc: BaseException) -> str:
+def describe(exc: BaseException, url: str | None = None) -> str:
     """A fault in one line: its own message for the rig's errors, its kind and message for anything else,
-    with the notes attached on the way (e.g. that the table could not be made safe)."""
+    with the notes attached on the way (e.g. that the table could not be made safe). Where the message tells a
+    programmer what to call (the e-stop's "call reset()"), the operator is told the command instead."""
     if isinstance(exc, OSError) and exc.strerror:
         text = f"{exc.filename + ': ' if exc.filename else ''}{exc.strerror}"
     else:
         text = str(exc) if isinstance(exc, RigError) else f"{type(exc).__name__}: {exc}"
+    if "call reset()" in text:
+        text = text.replace("call reset()", f"clear it with `rig table --url {url or 'URL'} reset`")
     notes = getattr(exc, "__notes__", None) or []
     return "; ".join([text, *notes])
 

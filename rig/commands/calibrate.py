@@ -97,7 +97,7 @@ def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, se
         import signal
 
         signum = getattr(exc, "signum", signal.SIGINT)
-        echo(f"aborted by {_signal_name(signum)} before the session started; nothing was recorded", err=True)
+        echo(f"aborted by {_signal_name(signum)} before recording began; nothing new was recorded", err=True)
         return aborted(signum)
     except Exception as exc:
         if not _is_known(exc):

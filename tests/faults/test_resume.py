@@ -106,12 +106,12 @@ def test_a_session_stopped_before_its_first_hold_resumes_from_the_start(tmp_path
 
 
 def test_a_session_stopped_while_calibrating_is_finished_without_the_rig(tmp_path, monkeypatch):
-    import rig.pipeline
+    import procedures.orchestrator
 
     def killed(*a, **k):
         raise Killed()
 
-    monkeypatch.setattr(rig.pipeline, "calibrate_session", killed)
+    monkeypatch.setattr(procedures.orchestrator, "calibrate_session", killed)
     with pytest.raises(Killed):
         SessionOrchestrator(tmp_path / "s", stopping_factory()).start(config(), RigSpec(True, 6))
     monkeypatch.undo()
