@@ -15,6 +15,7 @@ from drivers import DriverError
 from drivers.contract import DataReady
 from procedures.protocols import Board
 from rig.clock import Clock, sleep_until
+from rig.outliers import OUTLIER_SIGMAS, isolated_outliers
 
 
 @dataclass
@@ -183,13 +184,34 @@ def log_read_errors(store, sampler: "Sampler") -> None:
     sampler.read_errors.clear()
 
 
+def log_outliers(store, step: int, rec: Recording) -> None:
+    """Say in the session log which sensors of a stored hold had isolated outlier samples (they stay recorded)."""
+    found = hold_outliers(rec)
+    if found:
+        store.log_event("outlier-samples", f"hold {step}: " + ", ".join(f"{name} {n}" for name, n in found.items())
+                        + f" isolated sample(s) further than {OUTLIER_SIGMAS:g} robust sigmas from the hold's "
+                        "median; kept in the record, set aside by the hold statistics", float(rec.t[-1]))
+
+
+def hold_outliers(rec: Recording) -> dict[str, int]:
+    """Isolated outlier samples per sensor of a hold (kept in the record; set aside by the statistics)."""
+    out = {}
+    for name, y in rec.samples.items():
+        n = int(isolated_outliers(y[~np.isnan(y).any(axis=1)]).sum())
+        if n:
+            out[name] = n
+    return out
+
+
 def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 100.0, k_sigma: float = 8.0,
                     k_std: float = 4.0, quantum: float = 2.0) -> str | None:
     """Says which sensor and axis moved during a hold (someone bumped the table), or None.
 
     The hold is cut into windows. A static hold has window means that agree to within their standard
     error (plus a couple of counts of quantisation) and window spreads alike; a slow drift shows in the
-    means, a knock (a fast, decaying oscillation that averages out) in one window's spread.
+    means, a knock (a fast, decaying oscillation that averages out) in one window's spread. An isolated
+    outlier sample (a read glitch, `rig.outliers`) is not motion: it is set aside before the windows are
+    judged (`hold_outliers` counts them), while a knock rings over too many samples to be set aside.
     """
     n_win = max(int(window_s * rate_hz), 2)
     for name in ("gyro", "accel"):
@@ -197,6 +219,7 @@ def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 1
         if y is None:
             continue
         y = y[~np.isnan(y).any(axis=1)]
+        y = y[~isolated_outliers(y)]
         m = len(y) // n_win
         if m < 3:
             continue

@@ -12,7 +12,7 @@ from typing import Callable
 
 import numpy as np
 
-from procedures.acquisition import Recording, Sampler, hold_has_motion, log_read_errors
+from procedures.acquisition import Recording, Sampler, hold_has_motion, log_outliers, log_read_errors
 from procedures.planning import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles
@@ -62,18 +62,20 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
                 progress: Progress | None = None) -> dict:
     """Record holds `start_step..` of `schedule` and the moves between them into `store`.
 
+    The table is positioned straight at orientation `start_step` (an unrecorded move) and its hold is the
+    first thing recorded: a resumed run starts by holding again where the interrupted one last held, so the
+    first recorded move starts from a hold of its own run, never across the interruption.
     Returns acquisition figures: ticks sampled and reads that found no fresh sample (late_reads).
     """
     n = len(schedule)
     arm_table(table, m)
-    first = schedule[max(start_step - 1, 0)]
     if progress:
         progress(start_step, n, "positioning")
-    position_table(table, clock, first, m)
+    position_table(table, clock, schedule[start_step], m)
     sampler = Sampler(board, clock, m.rate_hz, m.mag_every, session_t0=session_t0)
     sampler.align_to("gyro")
     for j in range(start_step, n):
-        if j > 0:
+        if j > start_step:
             if progress:
                 progress(j, n, "move")
             _record_move(table, sampler, store, geometry, schedule[j], j - 1, m)
@@ -129,6 +131,7 @@ def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGe
                               table_deg=table_deg, commanded_deg=(target.outer_deg, target.inner_deg),
                               measured_deg=measured, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, attempt=attempt)
             log_read_errors(store, sampler)
+            log_outliers(store, step, rec)
             return rec
         store.log_event("hold-repeated", f"hold {step} attempt {attempt}: {moved}", float(rec.t[-1]))
     raise HoldFailed(f"hold {step} kept moving in all {m.max_hold_attempts} attempts (see the session's "

@@ -1,12 +1,9 @@
-"""A calibration session end to end: store, metadata, the run, the calibration and its outputs.
-
-What is recorded is committed before anything else can fail; the table is made safe in every exit path;
-Ctrl-C marks the session aborted (exit status 130) and `resume` can finish it later.
+"""The pieces of a calibration session the orchestrator (`procedures.orchestrator`) composes: the schedule and
+its observability check, the metadata snapshot, and recording with the table made safe in every exit path.
 """
 
 from __future__ import annotations
 
-import datetime as dt
 import json
 import platform
 import socket
@@ -20,10 +17,6 @@ from procedures.calibration import MotionSettings, run_session
 from procedures.planning import Orientation, plan_orientations, schedule_rotations
 from rig import __version__
 from rig.config import RigConfig
-
-
-def now_iso() -> str:
-    return dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds").replace("+00:00", "Z")
 
 
 def motion_settings(config: RigConfig) -> MotionSettings:
@@ -70,13 +63,23 @@ def check_plan(config: RigConfig, schedule: list[Orientation]) -> list[str]:
 
 def record(rig, store, schedule: list[Orientation], *, start_step: int = 0, session_t0: float = 0.0,
            progress: Callable[[int, int, str], None] | None = None) -> dict:
-    """Run the table and board through `schedule` into `store`; the table is left safe whatever happens."""
+    """Run the table and board through `schedule` into `store`; the table is left safe whatever happens.
+
+    If making it safe fails after another failure (or a stop signal), the first one is raised, with a note
+    that the table could not be made safe, rather than hidden behind the second.
+    """
     try:
-        return run_session(rig.table, rig.board, rig.clock, store, schedule, rig.config.geometry,
-                           motion_settings(rig.config), start_step=start_step, session_t0=session_t0,
-                           progress=progress)
-    finally:
-        rig.table.make_safe()
+        stats = run_session(rig.table, rig.board, rig.clock, store, schedule, rig.config.geometry,
+                            motion_settings(rig.config), start_step=start_step, session_t0=session_t0,
+                            progress=progress)
+    except BaseException as exc:
+        try:
+            rig.table.make_safe()
+        except Exception as safe_exc:
+            exc.add_note(f"the table could not be made safe afterwards: {safe_exc}")
+        raise
+    rig.table.make_safe()
+    return stats
 
 
 def write_json(path: Path, data: dict) -> None:

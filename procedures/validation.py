@@ -19,12 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+from procedures.orchestrator import RigSpec, SessionOrchestrator
 from rig.attitude.compare import AXES
 from rig.attitude.evaluate import Row, SessionRows, peer_rows, session_rows, ukf_row
 from rig.attitude.peers import PEERS
 from rig.attitude.ukf import AttitudeEstimate, UKFSettings
 from rig.calibration.result import TriadCalibration
-from rig.errors import CalibrationError
+from rig.errors import CalibrationError, StopSignal
 from rig.session_data import SessionData
 
 OURS = "ours"
@@ -177,26 +178,33 @@ def run_trajectory_on(rig, config) -> SessionData:
 
 def validate_on_rig(out_dir: Path, config, *, sim: bool = True, seed: int = 0, calibration: Path | None = None,
                     method: str = "joint", peers: tuple[str, ...] = PEERS, plots: bool = True,
-                    settings: UKFSettings | None = None, echo=print) -> tuple[ValidationResult, dict]:
+                    settings: UKFSettings | None = None, echo=print, build_rig=None) -> tuple[ValidationResult, dict]:
     """Calibrate the unit (or take `calibration`), record the trajectory on it, write the Table III report.
 
     Simulated: the calibration session and the trajectory run on the same simulated unit (the seed
-    fixes its sensor errors; the trajectory uses another noise trial).
+    fixes its sensor errors; the trajectory uses another noise trial). `build_rig(config, RigSpec)` makes
+    the rig (the command passes its factory; by default `rig.assembly`'s).
     """
-    from rig.assembly import build_real, build_sim
     from rig.io.calibration_json import read_calibration, triads_from_calibration
     from rig.io.session_csv import write_session
+
+    if build_rig is None:
+        from rig.assembly import build_real, build_sim
+
+        def build_rig(config, spec):
+            return (build_sim(config, seed=spec.seed or 0, trial=spec.trial, time_scale=spec.time_scale)
+                    if spec.simulated else build_real(config))
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     if calibration is None:
-        from rig.commands.calibrate import run_session_to
-
         calibration_dir = out_dir / "calibration"
-        status = run_session_to(calibration_dir, config, sim=sim, seed=seed, time_scale=None, method=method,
-                                progress=False)
-        if status != 0:
-            raise CalibrationError(f"the calibration session in {calibration_dir} ended with status {status}")
+        outcome = SessionOrchestrator(calibration_dir, build_rig, method=method).start(config, RigSpec(sim, seed))
+        if outcome.status == "aborted":
+            raise StopSignal(outcome.signum)
+        if outcome.status not in ("complete", "rejected"):
+            raise CalibrationError(f"the calibration session in {calibration_dir} ended {outcome.status}: "
+                                   f"{outcome.reason}")
         calibration = calibration_dir / "calibration.json"
     doc = read_calibration(calibration)
     ours = triads_from_calibration(doc)
@@ -204,7 +212,7 @@ def validate_on_rig(out_dir: Path, config, *, sim: bool = True, seed: int = 0, c
     cal_session = _calibration_session(doc, Path(calibration))
     if cal_session is not None:
         calibrations.update(baseline_calibrations(cal_session, ours))
-    with (build_sim(config, seed=seed, trial=1) if sim else build_real(config)) as rig:
+    with build_rig(config, RigSpec(sim, seed, None, trial=1)) as rig:
         session = run_trajectory_on(rig, config)
     calibrations["nominal datasheet"] = nominal_calibration(session.meta["chips"])
     write_session(session, out_dir / "trajectory")

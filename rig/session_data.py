@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rig.outliers import isolated_outliers
 from rig.rotations import matrix_from_quat, quat_from_matrix
 
 SENSOR_UNITS = {"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"}
@@ -28,6 +29,7 @@ class HoldStats:
     t_end: np.ndarray       # (k,)
     temp_c: np.ndarray | None = None      # (k,) mean board temperature
     vsupply_v: np.ndarray | None = None   # (k,)
+    outliers: np.ndarray | None = None    # (k,) isolated outlier samples set aside (rig.outliers)
 
 
 SETTLE_NOISE_FACTOR = 6.0
@@ -146,12 +148,15 @@ class SessionData:
 
     def holds(self, sensor: str, settle_s: float = 0.0) -> HoldStats:
         y = self.raw[sensor]
-        steps, means, stds, counts, Rs, t0, t1, temps, vs = [], [], [], [], [], [], [], [], []
+        steps, means, stds, counts, Rs, t0, t1, temps, vs, spikes = [], [], [], [], [], [], [], [], [], []
         for j, idx in self.hold_rows(settle_s):
             vals = y[idx]
             vals = vals[~np.isnan(vals).any(axis=1)]
             if len(vals) == 0:
                 continue
+            outliers = isolated_outliers(vals)
+            vals = vals[~outliers]
+            spikes.append(int(outliers.sum()))
             steps.append(j)
             means.append(vals.mean(axis=0))
             stds.append(vals.std(axis=0, ddof=1) if len(vals) > 1 else np.zeros(3))
@@ -165,7 +170,7 @@ class SessionData:
                          np.array(stds).reshape(-1, 3), np.array(counts, dtype=int),
                          np.array(Rs).reshape(-1, 3, 3), np.array(t0), np.array(t1),
                          np.array(temps) if self.temp_c is not None else None,
-                         np.array(vs) if self.vsupply_v is not None else None)
+                         np.array(vs) if self.vsupply_v is not None else None, np.array(spikes, dtype=int))
 
     def moves(self, sensor: str, settle_s: float = 0.0) -> list[MoveStream]:
         """Streams between consecutive holds (in time order), each including its bounding samples.

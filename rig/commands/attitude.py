@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from rig.exits import CommandError, Exit, command_error, plain
+
 MAG_CHOICE = click.Choice(["vector", "heading"])
 
 
@@ -20,7 +22,14 @@ NO_STILL_HELP = "Integrate the gyro on every step (the paper's filter) instead o
 
 
 def _fail(e: Exception) -> click.ClickException:
-    return click.ClickException(str(e))
+    """A RigError with its exit code; any other ValueError here is a number the data cannot support."""
+    from rig.errors import RigError
+
+    if isinstance(e, RigError):
+        return command_error(e)
+    if isinstance(e, OSError) and e.strerror:
+        return CommandError(f"{e.filename + ': ' if e.filename else ''}{e.strerror}")
+    return CommandError(plain(str(e)))
 
 
 @click.command()
@@ -35,15 +44,16 @@ def _fail(e: Exception) -> click.ClickException:
 @click.option("--no-peers", is_flag=True, help="Skip the ahrs Madgwick/Mahony/EKF peers.")
 @click.option("--no-still-detection", is_flag=True, help=NO_STILL_HELP)
 def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers, no_still_detection):
-    """Run the quaternion UKF on an interchange session with motion and compare with its reference."""
+    """Run the quaternion UKF on a session with motion (the rig's folder or an interchange one) and compare with
+    its reference."""
     from procedures.validation import nominal_calibration, table3_markdown, validate_session, write_outputs
     from rig.attitude.peers import PEERS
     from rig.errors import RigError
+    from rig.commands.sessions import read_any_session
     from rig.io.calibration_json import read_calibration, triads_from_calibration
-    from rig.io.session_csv import read_session
 
     try:
-        session = read_session(session_dir)
+        session = read_any_session(session_dir)
         doc = read_calibration(calibration)
         ours = triads_from_calibration(doc)
         if session.field_uT is None and doc.get("field_uT") is not None:
@@ -73,7 +83,8 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
 @click.command()
 @click.option("--sim", is_flag=True, help="Run on the built-in simulated rig.")
 @click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), help="Rig TOML file.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Simulated unit and noise (with --sim).")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
+              help="Simulated unit and noise (with --sim).")
 @click.option("--calibration", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               help="Use this calibration.json instead of running a calibration session first.")
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True,
@@ -85,6 +96,7 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
 def validate(sim, config_path, seed, calibration, method, mag_measurement, out, no_plots, no_still_detection):
     """Calibrate, run the dynamic trajectory on the same unit, and write the Table III attitude report."""
     from procedures.validation import validate_on_rig
+    from rig.commands.calibrate import build_rig, stop_signals_raise
     from rig.config import load_config
     from rig.errors import RigError
 
@@ -92,7 +104,12 @@ def validate(sim, config_path, seed, calibration, method, mag_measurement, out, 
         raise click.UsageError("give --sim (simulated rig) or --config rig.toml (real rig)")
     try:
         config = load_config(config_path)
-        validate_on_rig(out, config, sim=sim, seed=seed, calibration=calibration, method=method,
-                        plots=not no_plots, settings=_settings(mag_measurement, no_still_detection), echo=click.echo)
-    except (RigError, ValueError) as e:
+    except ValueError as e:
+        raise CommandError(plain(str(e)), Exit.BAD_INPUT) from None
+    try:
+        with stop_signals_raise():
+            validate_on_rig(out, config, sim=sim, seed=seed, calibration=calibration, method=method,
+                            plots=not no_plots, settings=_settings(mag_measurement, no_still_detection),
+                            echo=click.echo, build_rig=build_rig)
+    except (RigError, ValueError, OSError) as e:
         raise _fail(e) from None

@@ -2,167 +2,170 @@
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 
 import click
 
-from rig.config import RigConfig, config_from_dict, load_config
+from rig.exits import CommandError, Exit, FiniteFloat, aborted, code_for, command_error, plain
+from rig.config import RigConfig, load_config
 
 
-def _progress_bar(total: int, enabled: bool):
-    from tqdm import tqdm
+class _Progress:
+    """The tqdm bar of a session, made on the first report (a resumed session's length is known only then)."""
 
-    bar = tqdm(total=total, unit="orientation", desc="calibration", disable=not enabled, file=sys.stderr,
-               bar_format="{desc}: {n}/{total} {bar} [{elapsed}<{remaining}] {postfix}")
+    def __init__(self, enabled: bool) -> None:
+        self.enabled, self.bar = enabled, None
 
-    def progress(k: int, n: int, phase: str) -> None:
-        bar.n = k
-        bar.set_postfix_str(f"orientation {min(k + 1, n)}/{n} {phase}")
-        bar.refresh()
+    def __call__(self, k: int, n: int, phase: str) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            from tqdm import tqdm
 
-    return bar, progress
+            self.bar = tqdm(total=n, unit="orientation", desc="calibration", file=sys.stderr,
+                            bar_format="{desc}: {n}/{total} {bar} [{elapsed}<{remaining}] {postfix}")
+        self.bar.n = k
+        self.bar.set_postfix_str(f"orientation {min(k + 1, n)}/{n} {phase}")
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
 
 
-def _terminate_as_interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")
+STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
 
 
-def run_session_to(out: Path, config: RigConfig, *, sim: bool, seed: int, time_scale: float | None,
-                   method: str, progress: bool, resume: bool = False, trial: int = 0) -> int:
-    """Record (or finish recording) a session in `out`, then calibrate and report. Returns the exit status.
-
-    SIGTERM and SIGHUP are handled like Ctrl-C: the table is stopped and disabled, the session marked aborted.
-    """
+@contextlib.contextmanager
+def stop_signals_raise():
+    """SIGINT, SIGTERM and SIGHUP raise `StopSignal(signum)` where the work is (like Ctrl-C, but naming the
+    signal), once: a repeat while the table is being made safe is ignored, so the stop cannot be cut short."""
     import signal
 
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, _terminate_as_interrupt)
-    from procedures.session import check_plan, plan_for, record, session_metadata, write_json
-    from rig.assembly import build_real, build_sim, truth_after_start
-    from rig.store import SessionStore
+    from rig.errors import StopSignal
 
-    if resume:
-        store = SessionStore.open(out)
-        meta = store.metadata
-        from procedures.planning import Orientation
-        schedule = [Orientation(**o) for o in meta["schedule"]]
-        done = store.completed_holds()
-        start = (max(done) + 1) if done else 0
-        if start >= len(schedule):
-            click.echo(f"{out}: all {len(schedule)} holds are recorded; calibrating")
-    else:
-        schedule = plan_for(config)
-        problems = check_plan(config, schedule)
-        if problems:
-            raise click.ClickException("the schedule cannot excite every axis: " + "; ".join(problems))
-        store, start = None, 0
-    rig = build_sim(config, seed=seed, trial=trial, time_scale=time_scale) if sim else build_real(config)
-    with rig:
-        rig.board.start()
-        truth = truth_after_start(rig)
-        if store is None:
-            meta = session_metadata(config, schedule, sim=sim, seed=seed if sim else None, time_scale=time_scale)
-            meta["trial"] = trial
-            meta["chips"] = rig.board.settings()
-            if truth is not None:
-                meta["truth"] = truth
-            store = SessionStore.create(out, meta)
-            if truth is not None:
-                write_json(out / "truth.json", truth)
-        bar, prog = _progress_bar(len(schedule), progress)
-        try:
-            if start < len(schedule):
-                store.set_status("running", "resumed" if resume else "")
-                t0 = store.last_time() + 1.0 if resume and store.last_time() is not None else 0.0
-                stats = record(rig, store, schedule, start_step=start, session_t0=t0, progress=prog)
-                store.update_metadata(acquisition=stats)
-        except KeyboardInterrupt:
-            bar.close()
-            store.set_status("aborted", "interrupted by the operator (SIGINT); the table was stopped and disabled")
-            click.echo(f"\naborted: {len(store.completed_holds())}/{len(schedule)} holds recorded in {out}; "
-                       f"finish with: rig resume {out}", err=True)
-            return 130
-        except Exception as e:
-            bar.close()
-            store.set_status("failed", f"{type(e).__name__}: {e}")
-            raise click.ClickException(f"session failed: {e} (recorded holds are kept in {out}; "
-                                       f"`rig resume {out}` continues)") from e
-        bar.close()
-    return finish_session(out, store, method=method)
+    stopping = []
 
+    def handler(signum, frame):
+        if stopping:
+            return
+        stopping.append(signum)
+        raise StopSignal(signum)
 
-def finish_session(out: Path, store, *, method: str, settle_s: float = 0.0) -> int:
-    """Calibrate the recorded session, write calibration.json and the report, mark the session complete.
-
-    Holds are recorded after the table settled, so nothing is dropped from their start by default.
-    """
-    from rig.pipeline import calibrate_session
-    from rig.pipeline.writing import write_session_calibration
-    from rig.report import write_report
-
-    from rig.errors import CalibrationError
-
-    meta = store.metadata
-    session = store.to_session_data()
+    sigs = [getattr(signal, name) for name in STOP_SIGNALS if hasattr(signal, name)]
+    before = {sig: signal.signal(sig, handler) for sig in sigs}
     try:
-        result = calibrate_session(session, method=method, settle_s=settle_s)
-    except CalibrationError as e:
-        store.set_status("failed", f"calibration: {e}")
-        raise click.ClickException(f"{out}: the recorded session cannot be calibrated: {e}") from None
-    unit = meta.get("unit", {})
-    write_session_calibration(out, result, gravity=session.gravity, field_uT=session.field_uT,
-                              unit_serial=unit.get("serial"), board=unit.get("board"), extra={"session": str(out)})
-    truth = meta.get("truth")
-    limits = (meta.get("config") or {}).get("limits")
-    report = write_report(out, session, result.sensors, gravity=session.gravity, field_uT=session.field_uT,
-                          truth=truth, limits=limits, metadata={**store.metadata, "status": "complete"})
-    store.update_metadata(calibration="calibration.json", report=report.name)
-    store.set_status("complete", "")
-    for line in result.summary:
-        click.echo(line)
-    for line in result.warnings:
-        click.echo(f"warning: {line}", err=True)
-    if truth:
-        for line in truth_errors(result.sensors, truth):
-            click.echo(line)
-    click.echo(f"wrote {out / 'calibration.json'} and {report}")
-    return 0
+        yield
+    finally:
+        for sig, old in before.items():
+            signal.signal(sig, old)
 
 
-def truth_errors(sensors: dict, truth: dict) -> list[str]:
-    import numpy as np
+def build_rig(config: RigConfig, spec):
+    """The rig factory the orchestrator is given: the simulated rig or the real one (rig.assembly decides how)."""
+    from rig.assembly import build_real, build_sim
 
-    lines = []
-    for name, cal in sensors.items():
-        t = truth["sensors"].get(name)
-        if not t:
-            continue
-        H, B = np.array(t["H"]), np.array(t["B"])
-        eH = np.linalg.norm(cal.H - H) / np.linalg.norm(H) * 100
-        eB = np.linalg.norm(cal.B - B) / max(np.linalg.norm(B), 1e-12) * 100
-        lines.append(f"{name}: against the simulator's truth: H error {eH:.4f} % (Frobenius), B error {eB:.4f} %")
-    return lines
+    if spec.simulated:
+        return build_sim(config, seed=spec.seed or 0, trial=spec.trial, time_scale=spec.time_scale)
+    return build_real(config)
+
+
+def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, seed: int = 0,
+                   time_scale: float | None = None, method: str = "joint", progress: bool = True,
+                   resume: bool = False, trial: int = 0, echo=click.echo) -> int:
+    """Run (or, with `resume`, finish) the session in `out` and show how it ended; returns the exit code.
+
+    The orchestrator does the work; here are the progress bar, the stop signals and the exit code.
+    """
+    from procedures.orchestrator import RigSpec, SessionOrchestrator
+
+    bar = _Progress(progress)
+    orchestrator = SessionOrchestrator(out, build_rig, method=method, progress=bar)
+    try:
+        with stop_signals_raise():
+            try:
+                if resume:
+                    outcome = orchestrator.resume()
+                else:
+                    outcome = orchestrator.start(config, RigSpec(sim, seed if sim else None, time_scale, trial))
+            finally:
+                bar.close()
+    except KeyboardInterrupt as exc:          # a stop before the session existed: nothing to mark
+        import signal
+
+        signum = getattr(exc, "signum", signal.SIGINT)
+        echo(f"aborted by {_signal_name(signum)} before recording began; nothing new was recorded", err=True)
+        return aborted(signum)
+    except Exception as exc:
+        if not _is_known(exc):
+            raise
+        raise command_error(exc, prefix="" if resume else "cannot start the session: ") from None
+    return show_outcome(outcome, echo)
+
+
+def _signal_name(signum: int) -> str:
+    from rig.errors import signal_name
+
+    return signal_name(signum)
+
+
+def _is_known(exc: BaseException) -> bool:
+    from rig.errors import RigError
+
+    return isinstance(exc, (RigError, OSError)) or type(exc).__module__.startswith("drivers")
+
+
+def show_outcome(outcome, echo=click.echo) -> int:
+    """Print the end of a session (summary, warnings, truth, verdict or the reason it stopped); its exit code."""
+    out = outcome.folder
+    if outcome.status == "aborted":
+        echo(f"\naborted: {outcome.reason}; {outcome.holds}/{outcome.n_holds} holds recorded in {out}; "
+             f"finish with: rig resume {out}", err=True)
+        return aborted(outcome.signum)
+    if outcome.status == "failed":
+        echo(f"session failed: {plain(outcome.reason)} ({outcome.holds}/{outcome.n_holds} holds are kept in {out}; "
+             f"`rig resume {out}` continues)", err=True)
+        if outcome.error_log is not None:            # not a known fault: a bug, its traceback in the log
+            return Exit.INTERNAL
+        return code_for(outcome.error) if outcome.error is not None else Exit.FAILED
+    for line in outcome.summary:
+        echo(line)
+    for line in outcome.warnings:
+        echo(f"warning: {line}", err=True)
+    for line in outcome.truth_lines:
+        echo(line)
+    echo("wrote " + " and ".join(str(p) for p in outcome.written))
+    if outcome.verdict == "FAIL":
+        echo(f"verdict: FAIL ({plain(outcome.reason.removeprefix('verdict FAIL: '))}); the session is stored as "
+             "rejected", err=True)
+        return Exit.FAIL
+    echo(f"verdict: {outcome.verdict}" + (" (no limits configured)" if outcome.verdict == "NOT CHECKED" else ""))
+    return Exit.OK
 
 
 @click.command()
 @click.option("--sim", is_flag=True, help="Run on the built-in simulated rig (fake chips, fake turntable).")
 @click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False), help="Rig TOML file.")
 @click.option("--from", "from_dir", type=click.Path(exists=True, file_okay=False),
-              help="Calibrate a recorded interchange session instead of running one.")
+              help="Calibrate a recorded session (the rig's own folder or an interchange one) instead of running one.")
 @click.option("--format", "fmt", type=click.Choice(["interchange", "imu_tk"]), default="interchange",
               show_default=True)
 @click.option("--accel", type=click.Path(exists=True, dir_okay=False), help="imu_tk accelerometer file.")
 @click.option("--gyro", type=click.Path(exists=True, dir_okay=False), help="imu_tk gyroscope file.")
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output folder.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Simulated unit and noise (with --sim).")
-@click.option("--time-scale", type=float, default=None, help="Run the simulated rig at X times real time.")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
+              help="Simulated unit and noise (with --sim).")
+@click.option("--time-scale", type=FiniteFloat(0, 1e6, low_open=True), default=None,
+              help="Run the simulated rig at X times real time.")
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True,
               help="Accelerometer/magnetometer estimator.")
 @click.option("--orientations", type=click.IntRange(9, 64), default=None, help="Override the schedule size.")
-@click.option("--gravity", type=float, default=None,
+@click.option("--gravity", type=FiniteFloat(1.0, 30.0), default=None,
               help="Local gravity in m/s^2 for imu_tk data (default 9.80665; interchange sessions carry their own).")
-@click.option("--settle-s", type=float, default=0.5, show_default=True,
+@click.option("--settle-s", type=FiniteFloat(0.0, 3600.0), default=0.5, show_default=True,
               help="With --from: seconds dropped at the start of each hold (settling).")
 @click.option("--gyro-samples", type=click.Choice(["auto", "point", "mean"]), default="auto", show_default=True,
               help="With --from: a gyro sample is the rate at its time stamp (point) or its mean over the sample "
@@ -176,11 +179,22 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
 
         if fmt == "imu_tk" and not (accel and gyro):
             raise click.UsageError("--format imu_tk needs --accel FILE and --gyro FILE")
+        from rig.commands.sessions import is_rig_session
+        from rig.errors import RigError
+
         try:
+            if fmt == "interchange" and is_rig_session(from_dir):
+                if click.get_current_context().get_parameter_source("settle_s").name == "DEFAULT":
+                    settle_s = 0.0                  # the rig records a hold once the table has settled
+                _calibrate_rig_folder(Path(from_dir), out, method=method, settle_s=settle_s, gravity=gravity,
+                                      gyro_samples=gyro_samples)
+                return
             calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
                                settle_s=settle_s, gravity=gravity, gyro_samples=gyro_samples, echo=click.echo)
-        except ValueError as e:
-            raise click.ClickException(str(e)) from None
+        except (RigError, OSError) as e:
+            raise command_error(e) from None
+        except (ValueError, ArithmeticError) as e:     # numbers the data cannot support (numpy's LinAlgError too)
+            raise CommandError(f"{from_dir or accel}: the data cannot be calibrated: {plain(str(e))}") from None
         return
     if not sim and not config_path:
         raise click.UsageError("give --sim (simulated rig), --config rig.toml (real rig) or --from SESSION_DIR")
@@ -191,11 +205,35 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
                             progress=not no_progress))
 
 
+def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: float, gravity: float | None,
+                          gyro_samples: str) -> None:
+    """`calibrate --from` on the rig's own session folder (no export needed): the same pipeline and writer."""
+    from rig.commands.sessions import read_any_session
+    from rig.pipeline import calibrate_session
+    from rig.pipeline.writing import write_session_calibration
+
+    session = read_any_session(folder)
+    if gravity is not None:
+        session.gravity = float(gravity)
+    result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples)
+    unit = session.meta.get("unit") or {}
+    path = write_session_calibration(out, result, gravity=session.gravity, field_uT=session.field_uT,
+                                     unit_serial=unit.get("serial"), board=unit.get("board"),
+                                     extra={"source": {"format": "rig-session-sqlite/1", "path": str(folder),
+                                                       "method": method, "settle_s": settle_s,
+                                                       "gyro_samples": gyro_samples}})
+    for line in result.summary:
+        click.echo(line)
+    for w in result.warnings:
+        click.echo(f"warning: {w}")
+    click.echo(f"wrote {path}")
+
+
 def _config(path, orientations) -> RigConfig:
     try:
         config = load_config(path)
     except ValueError as e:
-        raise click.ClickException(str(e)) from None
+        raise CommandError(plain(str(e)), Exit.BAD_INPUT) from None
     if orientations:
         config.schedule.orientations = orientations
     return config
@@ -206,16 +244,10 @@ def _config(path, orientations) -> RigConfig:
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True)
 @click.option("--no-progress", is_flag=True)
 def resume(session, method, no_progress):
-    """Finish an interrupted session from the next orientation, then calibrate."""
-    from rig.store import SessionStore
+    """Finish an interrupted session: hold again at its last recorded orientation, record the rest, calibrate.
 
-    meta = SessionStore.open(session).metadata
-    if meta.get("status") == "complete":
-        raise click.ClickException(f"{session}: the session is already complete")
-    config = config_from_dict(meta["config"])
-    sys.exit(run_session_to(session, config, sim=bool(meta.get("simulated")), seed=meta.get("seed") or 0,
-                            time_scale=meta.get("time_scale"), method=method, progress=not no_progress,
-                            resume=True, trial=meta.get("trial") or 0))
+    Refused (exit 4) while another process works on the session or its turntable."""
+    sys.exit(run_session_to(session, None, method=method, progress=not no_progress, resume=True))
 
 
 @click.command()
@@ -239,4 +271,4 @@ def plan(config_path, orientations):
                             settle_s=t.settle_s)
     click.echo(f"estimated rig time: {eta:.0f} s ({eta / 60:.1f} min)")
     if problems:
-        sys.exit(1)
+        sys.exit(Exit.FAIL)

@@ -1,13 +1,22 @@
 """`rig discrepancy SESSION_DIR --json OUT.json [--report DIR]`: what the linear model misses in a
-measured (interchange) session, named in the `effects.md` vocabulary."""
+measured session (the rig's own folder or an interchange one), named in the `effects.md` vocabulary.
+
+A sensor the analysis could not test is said on the terminal, in the JSON (`skipped`, `not_analysed`) and in
+the report's summary, and the exit code is 1: "nothing missing" is only claimed of what was analysed.
+"""
 
 from __future__ import annotations
 
 import json
 import sys
+import warnings
 from pathlib import Path
 
 import click
+
+from rig.exits import CommandError, Exit, command_error, plain
+
+SENSORS = ("accel", "gyro", "mag")
 
 
 @click.command()
@@ -19,27 +28,70 @@ import click
 @click.option("--no-replay", is_flag=True, help="Skip replaying the schedule in the simulator.")
 def discrepancy(session_dir, json_out, report_dir, no_replay):
     """Fit the linear model, test every candidate effect, report the ones the data support."""
+    from rig.commands.sessions import read_any_session
     from rig.discrepancy import analyze
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
-    from rig.io.session_csv import read_session
 
     try:
-        session = read_session(session_dir)
+        session = read_any_session(session_dir)
     except RigError as exc:
-        click.echo(f"error: {exc}", err=True)
-        sys.exit(2)
+        click.echo(f"error: {plain(str(exc))}", err=True)
+        sys.exit(Exit.BAD_INPUT)
     session.meta.setdefault("session", session_dir.name)
-    report = analyze(session, with_replay=not no_replay, plots_dir=report_dir)
-    json_out.parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(json_out, json.dumps(report, indent=2, default=_plain) + "\n")
+    try:
+        with warnings.catch_warnings():       # overflow on absurd data is reported below, not as numpy noise
+            warnings.simplefilter("ignore", RuntimeWarning)
+            report = analyze(session, with_replay=not no_replay, plots_dir=report_dir)
+    except RigError as exc:
+        raise command_error(exc, prefix=f"{session_dir}: ") from None
+    except (ValueError, ArithmeticError) as exc:      # numpy's LinAlgError is a ValueError
+        raise CommandError(f"{session_dir}: the analysis cannot run on these data ({type(exc).__name__}: "
+                           f"{plain(str(exc))}); check the session for extreme or non-finite values") from None
+    analysed = sorted(report.get("baseline", {}))
+    present = [s for s in SENSORS if s in session.raw]
+    not_analysed = [s for s in present if s not in analysed]
+    report["not_analysed"] = not_analysed
+    try:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(json_out, json.dumps(report, indent=2, default=_plain) + "\n")
+        if report_dir is not None:
+            Path(report_dir).mkdir(parents=True, exist_ok=True)
+            write_text_atomic(Path(report_dir) / "summary.md", summary_markdown(report, analysed, not_analysed))
+    except OSError as exc:
+        raise CommandError(f"{exc.filename or json_out}: cannot write the report: {exc.strerror}") from None
+    for reason in report.get("skipped", []):
+        click.echo(f"warning: not tested: {plain(reason)}", err=True)
     if not report["findings"]:
-        click.echo("no missing effect found: the linear model explains the data to within noise")
+        if not analysed:
+            click.echo("no sensor could be analysed; nothing is claimed about the data")
+        else:
+            click.echo(f"no missing effect found in {', '.join(analysed)}: the linear model explains "
+                       f"{'them' if len(analysed) > 1 else 'it'} to within noise")
     for f in report["findings"]:
         amb = f" (ambiguous with {', '.join(f['ambiguous_with'])})" if f.get("ambiguous_with") else ""
         click.echo(f"{f['effect']} on {f['sensor']}: {f['magnitude']:.4g} +- {f['uncertainty']:.2g} {f['unit']}; "
                    f"held-out RMS {f['heldout_rms_before']:.3g} -> {f['heldout_rms_after']:.3g} {f['heldout_unit']}{amb}")
+    if not_analysed:
+        click.echo(f"NOT analysed: {', '.join(not_analysed)} (see the warnings above); the result covers "
+                   f"{', '.join(analysed) or 'no sensor'} only", err=True)
     click.echo(f"wrote {json_out}")
+    if not_analysed:
+        sys.exit(Exit.FAIL)
+
+
+def summary_markdown(report: dict, analysed: list[str], not_analysed: list[str]) -> str:
+    lines = [f"# Discrepancy analysis of {report.get('session', '')}", "",
+             f"Analysed: {', '.join(analysed) or 'none'}."]
+    if not_analysed:
+        lines.append(f"**Not analysed: {', '.join(not_analysed)}** (see below); nothing is claimed about "
+                     f"{'them' if len(not_analysed) > 1 else 'it'}.")
+    lines += ["", "## Findings", ""]
+    lines += [f"- {f['effect']} on {f['sensor']}: {f['magnitude']:.4g} +- {f['uncertainty']:.2g} {f['unit']}"
+              for f in report["findings"]] or ["- none in the analysed sensors"]
+    if report.get("skipped"):
+        lines += ["", "## Not tested", ""] + [f"- {plain(s)}" for s in report["skipped"]]
+    return "\n".join(lines) + "\n"
 
 
 def _plain(x):

@@ -6,24 +6,35 @@ from pathlib import Path
 
 import click
 
+from rig.exits import CommandError, Exit, command_error
+
+EXPORTED = ("meta.json", "samples.csv")
+
 
 @click.command()
 @click.argument("session", type=click.Path(exists=True, file_okay=False, path_type=Path))
 @click.option("--to", "to", required=True, type=click.Path(file_okay=False, path_type=Path))
-def export(session, to):
+@click.option("--force", is_flag=True, help="Replace an interchange session already in the --to folder.")
+def export(session, to, force):
     """Write the session in SESSION as meta.json + samples.csv in the folder given by --to."""
+    from rig.commands.sessions import session_from_store
+    from rig.errors import RigError
     from rig.io.session_csv import write_session
     from rig.store import SessionStore
 
-    store = SessionStore.open(session)
-    meta = store.metadata
-    data = store.to_session_data()
-    extra = {k: meta[k] for k in ("unit", "operator", "start_utc", "end_utc", "status", "software", "truth")
-             if k in meta}
-    config = meta.get("config") or {}
-    geometry = config.get("geometry") or {}
-    if data.sample_rate_hz is None and (config.get("schedule") or {}).get("rate_hz"):
-        data.sample_rate_hz = float(config["schedule"]["rate_hz"])
-    table = {k: geometry[k] for k in ("outer_axis_world", "inner_axis_fixture") if k in geometry}
-    write_session(data, to, extra_meta={"table": table, "rig_session": extra} if table else {"rig_session": extra})
+    present = [name for name in EXPORTED if (to / name).exists()]
+    if present and not force:
+        raise CommandError(f"{to}: already holds {' and '.join(present)}; give --force to replace them, or "
+                           "another --to", Exit.BAD_INPUT)
+    try:
+        with SessionStore.open(session) as store:
+            meta = store.metadata
+            data = session_from_store(store)
+        extra = {k: meta[k] for k in ("unit", "operator", "start_utc", "end_utc", "status", "software", "truth",
+                                      "verdict", "resumes") if k in meta}
+        write_session(data, to, extra_meta={"rig_session": extra})
+    except RigError as e:
+        raise command_error(e) from None
+    except OSError as e:
+        raise CommandError(f"{to}: cannot write the export: {e.strerror}") from None
     click.echo(f"wrote {to / 'meta.json'} and {to / 'samples.csv'} ({data.t.size} rows)")

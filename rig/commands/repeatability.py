@@ -13,25 +13,27 @@ import click
 @click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False))
 @click.option("--trials", type=click.IntRange(2, 1000), required=True)
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path))
-@click.option("--seed", type=int, default=0, show_default=True, help="The simulated unit.")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="The simulated unit.")
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True)
 @click.option("--orientations", type=click.IntRange(9, 64), default=None)
 def repeatability(sim, config_path, trials, out, seed, method, orientations):
     """Run TRIALS sessions on one unit and report the mean and standard deviation of B and H (paper Fig. 7)."""
     from rig.commands.calibrate import _config, run_session_to
+    from rig.exits import Exit
     from rig.report import write_repeatability_report
 
     if not sim and not config_path:
         raise click.UsageError("give --sim or --config rig.toml")
     config = _config(config_path, orientations)
-    runs = []
+    runs, rejected = [], 0
     for k in range(trials):
         folder = out / f"trial-{k + 1:03d}"
         click.echo(f"trial {k + 1}/{trials} -> {folder}")
         status = run_session_to(folder, config, sim=sim, seed=seed, time_scale=None, method=method,
                                 progress=False, trial=k)
-        if status:
+        if status not in (Exit.OK, Exit.FAIL):          # a FAIL verdict is a result; anything else ends the series
             sys.exit(status)
+        rejected += status == Exit.FAIL
         runs.append(calibration_triads(folder / "calibration.json"))
     truth = None
     if sim:
@@ -39,6 +41,9 @@ def repeatability(sim, config_path, trials, out, seed, method, orientations):
         truth = json.loads((out / "trial-001" / "truth.json").read_text())
     report = write_repeatability_report(out, runs, truth=truth)
     click.echo(f"wrote {report}")
+    if rejected:
+        click.echo(f"{rejected} of {trials} trials have the verdict FAIL", err=True)
+        sys.exit(Exit.FAIL)
 
 
 def calibration_triads(path: Path) -> dict:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.errors import CalibrationError
+from rig.outliers import OUTLIER_SIGMAS
 from rig.session_data import HoldStats, MoveStream, SessionData
 
 # A hold whose noise (norm of the per-axis std) exceeds this multiple of the median hold's, plus
@@ -20,6 +21,10 @@ MOTION_STD_FLOOR_COUNTS = 1.0
 # the mean of quantised samples without noise to dither them can be off anyway, was turning.
 GYRO_MEAN_SIGMAS = 6.0
 GYRO_MEAN_FLOOR_COUNTS = 0.5
+# A move is not integrated across a hole in its samples longer than this many of its median sample intervals
+# (and MOVE_GAP_MIN_S): the rotation in the hole is unknown. Nor across a recorded resume (a clock gap).
+MOVE_GAP_INTERVALS = 10.0
+MOVE_GAP_MIN_S = 0.2
 
 
 def vec(v) -> str:
@@ -47,7 +52,8 @@ def warn_partial_nan(session: SessionData, warnings: list[str]) -> None:
 
 
 def warn_empty_holds(session: SessionData, holds: dict[str, HoldStats], settle_s: float, warnings: list[str]) -> None:
-    """A hold without samples of a sensor (all NaN, or shorter than the settling time) is named."""
+    """A hold without samples of a sensor (all NaN, or shorter than the settling time) is named, and so are
+    the isolated outlier samples set aside in a hold (`rig.outliers`), with their count."""
     raw_steps = [j for j, _ in session.hold_rows(0.0)]
     settled = {j for j, _ in session.hold_rows(settle_s)}
     for j in raw_steps:
@@ -57,6 +63,10 @@ def warn_empty_holds(session: SessionData, holds: dict[str, HoldStats], settle_s
         missing = sorted(settled - set(h.step.tolist()))
         if missing:
             warnings.append(f"{name}: no samples (NaN) in the hold(s) of step {', '.join(map(str, missing))}; not used")
+        if h.outliers is not None and h.outliers.any():
+            where = ", ".join(f"{int(n)} in step {int(j)}" for j, n in zip(h.step, h.outliers) if n)
+            warnings.append(f"{name}: {int(h.outliers.sum())} isolated outlier sample(s) set aside ({where}): "
+                            f"further than {OUTLIER_SIGMAS:g} robust sigmas from their hold's median")
 
 
 def find_bad_holds(session: SessionData, holds: dict[str, HoldStats], settle_s: float) -> dict[int, str]:
@@ -141,7 +151,7 @@ def without_steps(h: HoldStats, excluded: dict[int, str]) -> HoldStats:
     keep = ~np.isin(h.step, list(excluded))
     sel = lambda a: None if a is None else a[keep]  # noqa: E731
     return HoldStats(h.step[keep], h.mean[keep], h.std[keep], h.count[keep], h.R[keep], h.t_start[keep],
-                     h.t_end[keep], sel(h.temp_c), sel(h.vsupply_v))
+                     h.t_end[keep], sel(h.temp_c), sel(h.vsupply_v), sel(h.outliers))
 
 
 def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list[str], settle_s: float = 0.0,
@@ -151,10 +161,15 @@ def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list
     y_all = session.raw["gyro"]
     rails = rail_codes(y_all)
     out = []
+    resumes = resume_times(session)
     for m in session.moves("gyro", settle_s):
         end = next_step.get(m.step)
         if m.step in excluded or end in excluded:
             warnings.append(f"gyro: move {m.step} -> {end} not used (touches an excluded hold)")
+            continue
+        gap = move_gap(m, resumes)
+        if gap:
+            warnings.append(f"gyro: move {m.step} -> {end} not used: it {gap}")
             continue
         hit = [(axis, rail) for axis, rail in rails if piles_at(m.y[:, axis], rail, min_count=2)]
         if hit:
@@ -164,3 +179,27 @@ def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list
             continue
         out.append(m.trimmed_to_motion(rest=rest, still_counts=still_counts))
     return out
+
+
+def resume_times(session: SessionData) -> list[float]:
+    """Session times at which a resumed run started (the `resumes` the session store records)."""
+    out = []
+    for mark in session.meta.get("resumes") or []:
+        try:
+            out.append(float(mark["t_s"]))
+        except (KeyError, TypeError, ValueError):
+            continue
+    return sorted(t for t in out if np.isfinite(t))
+
+
+def move_gap(m: MoveStream, resumes: list[float]) -> str | None:
+    """Why a move stream cannot be integrated as one (a resume inside it, a hole in its samples), or None."""
+    for t in resumes:
+        if m.t[0] < t <= m.t[-1]:
+            return f"spans the resume at session time {t:.3f} s (a clock gap)"
+    dt = np.diff(m.t)
+    if dt.size >= 3:
+        worst = int(np.argmax(dt))
+        if dt[worst] > max(MOVE_GAP_MIN_S, MOVE_GAP_INTERVALS * float(np.median(dt))):
+            return f"has no samples for {dt[worst]:.3g} s after {m.t[worst]:.3f} s"
+    return None

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -25,21 +26,51 @@ METADATA_FIRST = ("unit", "unit_serial", "operator", "software", "started", "sta
                   "status_reason")
 
 
-def write_report(out_dir: Path, session: SessionData, calibrations: dict[str, TriadCalibration], *,
-                 gravity: float, field_uT: float | None, truth: dict | None = None, limits: dict | None = None,
-                 metadata: dict | None = None, settle_s: float = 0.5) -> Path:
-    """Write `out_dir/report.md` (+ PNGs, `report.json`) and return the path of `report.md`.
+@dataclass
+class Evaluation:
+    """The metrics of every calibrated sensor and the acceptance checks of the limits."""
 
-    `truth` = {"sensors": {name: {"B": [3], "H": [[3x3]]}}} for simulated sessions; `limits` as in
-    `rig.report.limits`; `metadata` defaults to `session.meta`; `settle_s` is dropped at the start of
-    every hold before its mean is taken (as the calibration does).
-    """
-    out_dir = Path(out_dir)
+    metrics: dict[str, SensorMetrics]
+    checks: list[LimitCheck]
+
+    @property
+    def verdict(self) -> str:
+        return verdict(self.checks)
+
+    def failing(self) -> list[str]:
+        """One line per check that did not pass: 'gyro residual_rms 0.0031 > 0.002 (FAIL)'."""
+        return [f"{c.sensor} {c.metric} {_short(c.value)} > {_short(c.limit)}" if c.result == "FAIL"
+                else f"{c.sensor} {c.metric}: not available (limit {_short(c.limit)})"
+                for c in self.checks if c.result != "PASS"]
+
+
+def evaluate(session: SessionData, calibrations: dict[str, TriadCalibration], *, gravity: float,
+             field_uT: float | None, truth: dict | None = None, limits: dict | None = None,
+             settle_s: float = 0.5) -> Evaluation:
+    """Metrics and limit checks of a calibration (what the report shows and the verdict rests on)."""
     validate_limits(limits or {})
     truths = truth_per_sensor(truth)
     metrics = {s: sensor_metrics(session, s, cal, gravity=gravity, field_uT=field_uT, truth=truths.get(s),
                                  settle_s=settle_s) for s, cal in calibrations.items()}
-    checks = check_limits({s: m.values for s, m in metrics.items()}, limits or {})
+    return Evaluation(metrics, check_limits({s: m.values for s, m in metrics.items()}, limits or {}))
+
+
+def write_report(out_dir: Path, session: SessionData, calibrations: dict[str, TriadCalibration], *,
+                 gravity: float, field_uT: float | None, truth: dict | None = None, limits: dict | None = None,
+                 metadata: dict | None = None, settle_s: float = 0.5, evaluation: Evaluation | None = None) -> Path:
+    """Write `out_dir/report.md` (+ PNGs, `report.json`) and return the path of `report.md`.
+
+    `truth` = {"sensors": {name: {"B": [3], "H": [[3x3]]}}} for simulated sessions; `limits` as in
+    `rig.report.limits`; `metadata` defaults to `session.meta`; `settle_s` is dropped at the start of
+    every hold before its mean is taken (as the calibration does). `evaluation` (from `evaluate` with the
+    same arguments) saves computing the metrics twice.
+    """
+    out_dir = Path(out_dir)
+    truths = truth_per_sensor(truth)
+    if evaluation is None:
+        evaluation = evaluate(session, calibrations, gravity=gravity, field_uT=field_uT, truth=truth, limits=limits,
+                              settle_s=settle_s)
+    metrics, checks = evaluation.metrics, evaluation.checks
     out_dir.mkdir(parents=True, exist_ok=True)
     parts = [f"# Calibration report\n\n**Verdict: {verdict(checks)}** ({_passed(checks)})",
              _session_section(session, metadata if metadata is not None else session.meta, gravity, field_uT),
@@ -48,6 +79,10 @@ def write_report(out_dir: Path, session: SessionData, calibrations: dict[str, Tr
         parts.append(_sensor_section(out_dir, sensor, cal, metrics[sensor], truths.get(sensor)))
     write_text_atomic(out_dir / "report.json", json.dumps(_summary(checks, metrics), indent=2) + "\n")
     return write_text_atomic(out_dir / "report.md", "\n\n".join(parts) + "\n")
+
+
+def _short(x: float) -> str:
+    return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{float(x):.4g}"
 
 
 def truth_per_sensor(truth: dict | None) -> dict[str, dict[str, np.ndarray]]:

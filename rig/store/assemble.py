@@ -1,9 +1,15 @@
 """Building a `SessionData` from the committed segments of a session file.
 
-Of a hold (or move) recorded more than once for the same step, only the latest attempt is used:
-a hold is repeated because the first one was disturbed (a bump), and a move is re-recorded when a
-resumed run drives to the orientation again. Two contiguous visits of one step would otherwise merge
-into one hold in `SessionData.hold_rows`. The superseded rows stay in the file.
+Of a move recorded more than once for the same step, only the latest is used: a resumed run records
+again the move an interruption cut off (or left without the hold that ends it). Of a hold recorded more
+than once in one run, only the latest attempt is used: a hold is repeated because the first one was
+disturbed (a bump). A resumed run starts by holding again at the last orientation recorded before the
+interruption; that visit is kept beside the first one, and as the two are contiguous rows of one step,
+`SessionData.hold_rows` sees one hold whose first rows end the move before the interruption and whose last
+rows start the move after it. So no move spans the clock gap of a resume. The superseded rows stay in the
+file.
+
+Runs are told apart by the `resume` events: each records the session time its run starts at.
 
 Segments are concatenated in the order they were committed; the store refuses a segment that starts
 before the last one ended, so this is also time order.
@@ -21,18 +27,33 @@ from rig.store.segment import sensor_columns
 
 DEFAULT_GRAVITY = 9.80665
 
-# Segments not superseded by a later-committed segment of the same phase and step. Commit order, not
-# the attempt number, decides: a resumed run may record a step again starting from attempt 1.
-LATEST = """
-FROM segment AS s
-WHERE NOT EXISTS (
-    SELECT 1 FROM segment AS later WHERE later.phase = s.phase AND later.step = s.step AND later.id > s.id)
-"""
+RESUME_EVENT = "resume"
+
+
+def resume_times(db: sqlite3.Connection) -> list[float]:
+    """Session times at which resumed runs started, ascending."""
+    rows = db.execute("SELECT t FROM event WHERE kind = ? AND t IS NOT NULL ORDER BY t", (RESUME_EVENT,))
+    return [float(t) for (t,) in rows]
+
+
+def used_segments(db: sqlite3.Connection) -> list[tuple[int, str, int]]:
+    """(id, phase, step) of the segments a session is built from, in commit order (see the module doc).
+
+    Commit order, not the attempt number, decides what is latest: a resumed run numbers its attempts from 1.
+    """
+    starts = resume_times(db)
+    rows = db.execute("SELECT id, phase, step, t_start FROM segment ORDER BY id").fetchall()
+    run_of = {seg: sum(t >= s for s in starts) for seg, _, _, t in rows}
+    latest: dict[tuple, int] = {}
+    for seg, phase, step, _ in rows:
+        latest[(phase, step) if phase == "move" else (phase, step, run_of[seg])] = seg
+    keep = set(latest.values())
+    return [(seg, phase, step) for seg, phase, step, _ in rows if seg in keep]
 
 
 def assemble_session(db: sqlite3.Connection, metadata: dict, source: str) -> SessionData:
-    segments = db.execute(f"SELECT id, phase, step {LATEST} ORDER BY id").fetchall()
-    loaded = _load_arrays(db)
+    segments = used_segments(db)
+    loaded = _load_arrays(db, [seg for seg, _, _ in segments])
     parts = [loaded.get(seg_id, {}) for seg_id, _, _ in segments]
     sizes = [part["t"].size for part in parts]
     sensors = list(dict.fromkeys(name[4:] for part in parts for name in part if name.startswith("raw:")))
@@ -55,11 +76,13 @@ def assemble_session(db: sqlite3.Connection, metadata: dict, source: str) -> Ses
     )
 
 
-def _load_arrays(db: sqlite3.Connection) -> dict[int, dict[str, np.ndarray]]:
+def _load_arrays(db: sqlite3.Connection, segments: list[int]) -> dict[int, dict[str, np.ndarray]]:
     out: dict[int, dict[str, np.ndarray]] = {}
-    rows = db.execute("SELECT segment_id, name, dtype, shape, data FROM array"
-                      f" WHERE segment_id IN (SELECT s.id {LATEST})")
+    wanted = set(segments)
+    rows = db.execute("SELECT segment_id, name, dtype, shape, data FROM array")
     for seg_id, name, dtype, shape, blob in rows:
+        if seg_id not in wanted:
+            continue
         try:
             out.setdefault(seg_id, {})[name] = arrays.decode(dtype, shape, blob)
         except ValueError as exc:

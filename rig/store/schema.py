@@ -5,7 +5,7 @@ metadata change is a new `metadata` row for the same key. Readers take the lates
 nothing is overwritten, so a crash can only lose the transaction in progress.
 
 - `segment`: one row per committed hold or move (phase, step, attempt, time span, commanded and
-  measured table angles of a hold).
+  measured table angles of a hold). A move is committed with the hold it leads to.
 - `array`: the sample arrays of a segment (`t`, `q_ref`, `table_deg`, `temp_c`, `vsupply_v`,
   `raw:<sensor>`) as BLOBs (see `arrays.py`).
 - `hold_stat`: per-channel mean/std/count of each hold, so a session can be inspected with the

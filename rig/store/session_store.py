@@ -1,16 +1,21 @@
 """The crash-safe, append-only store of one calibration session (`folder/session.sqlite`).
 
-SQLite in WAL mode with `synchronous=FULL`, one transaction per hold or move. Why FULL: in WAL mode
+SQLite in WAL mode with `synchronous=FULL`, one transaction per hold (with the move that led to it). Why FULL: in WAL mode
 NORMAL is already safe against a killed process, but a commit made under NORMAL can still roll back
 after a power cut or kernel crash, because the WAL is synced only at checkpoints. A lab bench loses
 power; FULL syncs the WAL at every commit, and with one commit per 5 s hold the fsync cost is
 irrelevant (benchmarks/store_write_load.py measures it). So a crash of any kind loses at most the
-hold or move in progress.
+hold in progress and the move into it.
+
+A full disk must not leave a session marked "running": the store keeps a small reserve file beside the
+session (`.space-reserve`, written when the session is created or reopened for writing) and gives its space
+back when a status cannot be written otherwise, so the last word on a session is always recorded.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import sqlite3
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -19,20 +24,30 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.errors import RigError
+from rig.errors import InputError, RigError
 from rig.session_data import SessionData
 from rig.store import arrays
-from rig.store.assemble import assemble_session
+from rig.store.assemble import RESUME_EVENT, assemble_session, resume_times
 from rig.store.schema import APPLICATION_ID, DDL, FORMAT, LAYOUT_VERSION, SESSION_FILE
 from rig.store.segment import checked_arrays, hold_stat_rows
 
-STATUSES = ("running", "complete", "aborted", "failed")
-TERMINAL_STATUSES = ("complete", "aborted", "failed")
+# complete: recorded, calibrated, verdict PASS (or no limits); rejected: the same with verdict FAIL;
+# aborted: stopped by a signal; failed: a fault (hardware, data, disk) ended it. All but complete and
+# rejected can be resumed.
+STATUSES = ("running", "complete", "rejected", "aborted", "failed")
+TERMINAL_STATUSES = ("complete", "rejected", "aborted", "failed")
+FINISHED_STATUSES = ("complete", "rejected")
 BUSY_TIMEOUT_S = 5.0
+RESERVE_FILE = ".space-reserve"
+RESERVE_BYTES = 1 << 20
 
 
 class SessionStoreError(RigError):
-    """A session folder or file cannot be used (missing, not a session, corrupt, closed); names the path."""
+    """A session file cannot be used or written (corrupt, closed, the disk full); names the path."""
+
+
+class NotASession(SessionStoreError, InputError):
+    """The folder given is not a session the rig can open (missing, another program's file, a newer layout)."""
 
 
 class SessionStore:
@@ -41,6 +56,7 @@ class SessionStore:
     def __init__(self, path: Path, conn: sqlite3.Connection) -> None:
         self.path = path
         self._conn: sqlite3.Connection | None = conn
+        self._pending_move: tuple[int, dict[str, np.ndarray]] | None = None
 
     # -- opening ---------------------------------------------------------------------------------
     @classmethod
@@ -49,12 +65,18 @@ class SessionStore:
         folder = Path(folder)
         path = folder / SESSION_FILE
         if path.exists():
-            raise SessionStoreError(f"{path}: a session already exists here; use SessionStore.open or a new folder")
+            raise NotASession(f"{folder}: a session already exists here (finish it with `rig resume {folder}`, "
+                              "or choose another folder)")
         initial = {"format": FORMAT, "start_utc": _utc_now(), **metadata, "status": "running", "status_reason": ""}
         encoded = _encode_metadata(path, initial)
-        folder.mkdir(parents=True, exist_ok=True)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise NotASession(f"{folder}: cannot create the session folder: {exc.strerror}") from None
+        _check_writable(folder)
         conn = _connect(path, uri=path.resolve().as_uri())
         store = cls(path, conn)
+        store.keep_reserve()
         with store._transaction() as db:
             db.execute(f"PRAGMA application_id={APPLICATION_ID}")
             db.execute(f"PRAGMA user_version={LAYOUT_VERSION}")
@@ -70,9 +92,9 @@ class SessionStore:
         folder = Path(folder)
         path = folder / SESSION_FILE
         if not folder.is_dir():
-            raise SessionStoreError(f"{folder}: no such session folder")
+            raise NotASession(f"{folder}: no such session folder")
         if not path.is_file():
-            raise SessionStoreError(f"{folder}: not a rig session (no {SESSION_FILE})")
+            raise NotASession(f"{folder}: not a rig session (no {SESSION_FILE})")
         conn = _connect(path, uri=path.resolve().as_uri() + "?mode=rw")
         try:
             _check_file(path, conn)
@@ -94,18 +116,64 @@ class SessionStore:
         with self._transaction() as db:
             db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
 
-    def set_status(self, status: str, reason: str = "") -> None:
-        """Status and reason; a terminal status also records `end_utc`. Logged as a `status` event."""
+    def set_status(self, status: str, reason: str = "", **extra) -> None:
+        """Status and reason (and `extra` metadata keys, in the same transaction); a terminal status also
+        records `end_utc`. Logged as a `status` event. If the disk is full, the reserve is given up to
+        write it."""
         if status not in STATUSES:
             raise ValueError(f"{self.path}: status {status!r} is not one of {', '.join(STATUSES)}")
-        changes = {"status": status, "status_reason": reason}
+        changes = {**extra, "status": status, "status_reason": reason}
         if status in TERMINAL_STATUSES:
             changes["end_utc"] = _utc_now()
         encoded = _encode_metadata(self.path, changes)
+
+        def write() -> None:
+            with self._transaction() as db:
+                db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
+                db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (NULL, 'status', ?, ?)",
+                           (f"{status}: {reason}" if reason else status, _utc_now()))
+        try:
+            write()
+        except SessionStoreError:
+            if not self.release_reserve():
+                raise
+            write()
+
+    def keep_reserve(self) -> None:
+        """(Re)write the reserve file, so a status can still be written when the disk fills up."""
+        reserve = self.path.parent / RESERVE_FILE
+        try:
+            if reserve.is_file() and reserve.stat().st_size >= RESERVE_BYTES:
+                return
+            with open(reserve, "wb") as f:
+                f.write(bytes(RESERVE_BYTES))
+                f.flush()
+                os.fsync(f.fileno())
+        except OSError:
+            reserve.unlink(missing_ok=True)     # no room for it: the session can still run
+
+    def release_reserve(self) -> bool:
+        """Give the reserve's space back; False if there was none."""
+        reserve = self.path.parent / RESERVE_FILE
+        if not reserve.exists():
+            return False
+        reserve.unlink()
+        return True
+
+    def mark_resume(self, t0: float, after_t: float | None, reason: str) -> None:
+        """Record that a resumed run starts at session time `t0` (the last run ended at `after_t`): a clock gap
+        no move may span. Kept as a `resume` event (runs are told apart by them) and in `resumes` metadata."""
+        mark = {"t_s": float(t0), "after_s": None if after_t is None else float(after_t), "utc": _utc_now(),
+                "reason": reason}
+        encoded = _encode_metadata(self.path, {"resumes": [*self.metadata.get("resumes", []), mark]})
         with self._transaction() as db:
             db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
-            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (NULL, 'status', ?, ?)",
-                       (f"{status}: {reason}" if reason else status, _utc_now()))
+            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
+                       (float(t0), RESUME_EVENT, f"resumed at session time {t0:.3f} s"
+                        + (f" after {after_t:.3f} s" if after_t is not None else "") + f": {reason}", _utc_now()))
+
+    def resume_times(self) -> list[float]:
+        return resume_times(self._db)
 
     @property
     def status(self) -> tuple[str, str]:
@@ -117,13 +185,17 @@ class SessionStore:
                     table_deg: np.ndarray, commanded_deg: tuple[float, float], measured_deg: tuple[float, float],
                     temp_c: np.ndarray | None = None, vsupply_v: np.ndarray | None = None,
                     attempt: int = 1) -> None:
-        """Commit one hold (all samples, per-channel summary rows) in one transaction."""
+        """Commit one hold (all samples, per-channel summary rows), with the move that led to it, in one
+        transaction."""
         where = f"{self.path}: append_hold(step={step}, attempt={attempt})"
         commanded = _angle_pair(where, "commanded_deg", commanded_deg)
         measured = _angle_pair(where, "measured_deg", measured_deg)
         data = checked_arrays(where, t, samples, q_ref, table_deg, temp_c, vsupply_v)
         stats = hold_stat_rows(data, self.metadata)
+        move, self._pending_move = self._pending_move, None
         with self._transaction() as db:
+            if move is not None:
+                self._insert_segment(db, "move", move[0], 1, move[1], (None,) * 4)
             seg = self._insert_segment(db, "hold", step, attempt, data, commanded + measured)
             db.executemany("INSERT INTO hold_stat (segment_id, channel, mean, std, count) VALUES (?, ?, ?, ?, ?)",
                            [(seg, *row) for row in stats])
@@ -131,11 +203,19 @@ class SessionStore:
     def append_move(self, step: int, *, t: np.ndarray, samples: dict[str, np.ndarray], q_ref: np.ndarray,
                     table_deg: np.ndarray, temp_c: np.ndarray | None = None,
                     vsupply_v: np.ndarray | None = None) -> None:
-        """Commit the full-rate stream of the move leaving orientation `step`, in one transaction."""
+        """The full-rate stream of the move leaving orientation `step`, checked now and committed with the hold
+        it leads to (`append_hold`), in the same transaction.
+
+        A move is of use only with the hold that ends it; committed alone, an interruption before that hold
+        would leave it in the file, and the resumed run, which records the move again, would store it twice.
+        """
         where = f"{self.path}: append_move(step={step})"
         data = checked_arrays(where, t, samples, q_ref, table_deg, temp_c, vsupply_v)
-        with self._transaction() as db:
-            self._insert_segment(db, "move", step, 1, data, (None,) * 4)
+        last = self.last_time()
+        if last is not None and data["t"][0] < last:
+            raise ValueError(f"{where}: t starts at {float(data['t'][0])!r} s, before the end of the last committed "
+                             f"segment ({last!r} s); session time must not run backwards")
+        self._pending_move = (int(step), data)
 
     def log_event(self, kind: str, message: str, t: float | None = None) -> None:
         with self._transaction() as db:
@@ -163,6 +243,8 @@ class SessionStore:
 
     # -- closing ---------------------------------------------------------------------------------
     def close(self) -> None:
+        """Close the file; a move not yet followed by its hold is not written."""
+        self._pending_move = None
         if self._conn is not None:
             self._conn.close()
             self._conn = None
@@ -183,13 +265,18 @@ class SessionStore:
     @contextmanager
     def _transaction(self) -> Iterator[sqlite3.Connection]:
         db = self._db
-        db.execute("BEGIN IMMEDIATE")
         try:
+            db.execute("BEGIN IMMEDIATE")
             yield db
             db.execute("COMMIT")
-        except BaseException:
+        except BaseException as exc:
             if db.in_transaction:
-                db.execute("ROLLBACK")
+                try:
+                    db.execute("ROLLBACK")
+                except sqlite3.Error:
+                    pass
+            if isinstance(exc, sqlite3.Error):
+                raise SessionStoreError(f"{self.path}: could not write the session: {_why(exc)}") from exc
             raise
 
     def _insert_segment(self, db: sqlite3.Connection, phase: str, step: int, attempt: int,
@@ -212,6 +299,18 @@ class SessionStore:
         return seg
 
 
+def _why(exc: sqlite3.Error) -> str:
+    text = str(exc)
+    if "full" in text or getattr(exc, "sqlite_errorcode", None) == sqlite3.SQLITE_FULL:
+        return f"{text} (the disk is full: free some space, then `rig resume`)"
+    return text
+
+
+def _check_writable(folder: Path) -> None:
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise NotASession(f"{folder}: the folder is not writable")
+
+
 def _connect(path: Path, uri: str) -> sqlite3.Connection:
     """Connection in autocommit mode (transactions are explicit), WAL journal, synchronous=FULL."""
     try:
@@ -220,7 +319,11 @@ def _connect(path: Path, uri: str) -> sqlite3.Connection:
         conn.execute("PRAGMA synchronous=FULL")
         conn.execute("PRAGMA foreign_keys=ON")
     except sqlite3.DatabaseError as exc:
-        raise SessionStoreError(f"{path}: not a readable SQLite session file ({exc})") from exc
+        if not os.access(path.parent, os.W_OK):
+            raise NotASession(f"{path.parent}: the folder is not writable ({exc})") from exc
+        if isinstance(exc, sqlite3.OperationalError) and not path.exists():
+            raise SessionStoreError(f"{path}: cannot create the session file ({_why(exc)})") from exc
+        raise NotASession(f"{path}: not a readable SQLite session file ({exc})") from exc
     if mode.lower() != "wal":
         conn.close()
         raise SessionStoreError(f"{path}: could not switch the journal to WAL (got {mode!r})")
@@ -232,9 +335,9 @@ def _check_file(path: Path, conn: sqlite3.Connection) -> None:
         app_id = conn.execute("PRAGMA application_id").fetchone()[0]
         version = conn.execute("PRAGMA user_version").fetchone()[0]
         if app_id != APPLICATION_ID:
-            raise SessionStoreError(f"{path}: an SQLite file but not a rig session (application_id {app_id:#x})")
+            raise NotASession(f"{path}: an SQLite file but not a rig session (application_id {app_id:#x})")
         if version > LAYOUT_VERSION:
-            raise SessionStoreError(f"{path}: layout version {version} is newer than this rig reads ({LAYOUT_VERSION})")
+            raise NotASession(f"{path}: layout version {version} is newer than this rig reads ({LAYOUT_VERSION})")
         problems = [row[0] for row in conn.execute("PRAGMA quick_check")]
     except sqlite3.DatabaseError as exc:
         raise SessionStoreError(f"{path}: corrupt session file ({exc})") from exc

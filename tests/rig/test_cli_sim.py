@@ -100,8 +100,8 @@ def test_sigkill_mid_session_then_resume_completes_without_loss_or_duplicates(tm
     assert (out / "calibration.json").exists()
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_a_stop_signal_marks_the_session_aborted_and_exits_130(tmp_path, sig):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+def test_a_stop_signal_marks_the_session_aborted_by_that_signal_and_exits_128_plus_it(tmp_path, sig):
     out = tmp_path / "interrupted"
     proc = subprocess.Popen([*RIG, "calibrate", "--sim", "--no-progress", "--time-scale", "40", "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -110,11 +110,13 @@ def test_a_stop_signal_marks_the_session_aborted_and_exits_130(tmp_path, sig):
         time.sleep(0.05)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
+    assert proc.returncode == 128 + sig, err
     from rig.store import SessionStore
 
-    assert SessionStore.open(out).status[0] == "aborted"
-    assert "rig resume" in err
+    status, reason = SessionStore.open(out).status
+    assert status == "aborted"
+    assert signal.Signals(sig).name in reason
+    assert "rig resume" in err and "Traceback" not in err
 
 
 def test_repeatability_reports_the_spread_of_every_element(tmp_path):

@@ -29,7 +29,8 @@ def test_status_move_stop_estop_reset():
         assert run(srv.url, "stop").exit_code == 0
         assert run(srv.url, "estop").output.strip() == "e-stop latched"
         out = run(srv.url, "move", "1", "1")
-        assert out.exit_code == 1 and "e-stop latched" in out.output
+        assert out.exit_code == 3 and "e-stop latched" in out.output          # exit codes: README
+        assert f"rig table --url {srv.url} reset" in out.output and "reset()" not in out.output
         assert run(srv.url, "reset").exit_code == 0
         assert run(srv.url, "disable").exit_code == 0
         assert "ENABLED" not in run(srv.url, "status").output.split("axis 0")[1]
@@ -37,12 +38,12 @@ def test_status_move_stop_estop_reset():
 
 def test_errors_exit_non_zero_with_message(tmp_path):
     out = run("udp://127.0.0.1:502", "status")
-    assert out.exit_code == 1 and "scheme 'udp'" in out.output
+    assert out.exit_code == 2 and "scheme 'udp'" in out.output
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "x"\n')
     out = CliRunner().invoke(main, ["table", "--url", "tcp://127.0.0.1:1", "--profile", str(bad), "status"])
-    assert out.exit_code == 1 and "bad.toml" in out.output and "'word_order'" in out.output
+    assert out.exit_code == 2 and "bad.toml" in out.output and "'word_order'" in out.output
     fake = FakeTurntable(clock=RealClock())
     with TurntableServer(fake) as srv:
         out = run(srv.url, "move", "0", "500")
-        assert out.exit_code == 1 and "OUT_OF_LIMITS" in out.output and "ILLEGAL_DATA_VALUE (03)" in out.output
+        assert out.exit_code == 3 and "OUT_OF_LIMITS" in out.output and "ILLEGAL_DATA_VALUE (03)" in out.output

@@ -1,0 +1,299 @@
+"""The one owner of a calibration session: create or resume it, plan and check the schedule, record, finish.
+
+`SessionOrchestrator.start` plans and checks the schedule before anything exists, takes the session folder's
+lock and the turntable's, builds the rig through the factory it was given (real or simulated is the caller's
+choice), creates the store and records; `resume` takes the same locks, reads the schedule and the rig from the
+store and records the rest; both then calibrate, write calibration.json (`rig.pipeline.writing`, the one
+writer) and the report, and record a status that says how it ended:
+
+- complete / rejected: calibrated, verdict PASS (or no limits) / FAIL;
+- aborted: a stop signal (the signal named), the table stopped and disabled;
+- failed: a fault (hardware, communication, the data, the disk), named; recorded holds are kept.
+
+A resumed run starts by holding again at the last orientation recorded (procedures.calibration.run_session),
+and the clock gap before it is recorded (`SessionStore.mark_resume`), so no move is integrated across an
+interruption and none is stored twice. Nothing here prints or exits: the command shows the `Outcome`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as dt
+import signal
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, ContextManager
+
+import numpy as np
+
+from procedures.planning import Orientation
+from procedures.session import check_plan, plan_for, record, session_metadata, write_json
+from rig.config import RigConfig, config_from_dict
+from rig.errors import Busy, CalibrationError, InputError, RigError, signal_name
+from rig.locks import session_lock, table_lock
+from rig.pipeline import calibrate_session
+from rig.pipeline.writing import write_session_calibration
+from rig.report import evaluate, write_report
+from rig.store import SESSION_FILE, NotASession, SessionStore
+from rig.store.session_store import FINISHED_STATUSES
+
+Progress = Callable[[int, int, str], None]
+RESUME_GAP_S = 1.0          # session time left between the last sample of a run and the first of its resumption
+ERROR_LOG = "rig-error.log"
+
+
+@dataclass(frozen=True)
+class RigSpec:
+    """What the rig is built from besides the configuration; kept in the metadata so `resume` rebuilds it."""
+
+    simulated: bool = False
+    seed: int | None = None
+    time_scale: float | None = None
+    trial: int = 0
+
+    @classmethod
+    def from_metadata(cls, meta: dict) -> "RigSpec":
+        return cls(bool(meta.get("simulated")), meta.get("seed"), meta.get("time_scale"), int(meta.get("trial") or 0))
+
+
+# (configuration, spec) -> the built rig as a context manager (it owns its buses and table link)
+RigFactory = Callable[[RigConfig, RigSpec], ContextManager[Any]]
+
+
+class PlanError(InputError):
+    """The schedule cannot excite every axis; nothing was created and nothing moved."""
+
+
+@dataclass
+class Outcome:
+    """How a session run ended, for the command to show and turn into an exit code."""
+
+    folder: Path
+    status: str                          # complete | rejected | aborted | failed
+    reason: str = ""
+    verdict: str | None = None           # PASS | FAIL | NOT CHECKED, once calibrated
+    holds: int = 0                       # holds recorded in the session
+    n_holds: int = 0                     # holds in the schedule
+    signum: int | None = None            # the stop signal of an aborted run
+    error: BaseException | None = None   # the fault of a failed run
+    error_log: Path | None = None        # where its traceback was written, when it was not a known fault
+    summary: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    truth_lines: list[str] = field(default_factory=list)
+    written: list[Path] = field(default_factory=list)
+
+
+class SessionOrchestrator:
+    """Runs one session folder. `build_rig` makes the rig; `progress(k, n, phase)` is told where it is."""
+
+    def __init__(self, folder: Path, build_rig: RigFactory, *, method: str = "joint",
+                 progress: Progress | None = None) -> None:
+        self.folder = Path(folder)
+        self.build_rig = build_rig
+        self.method = method
+        self.progress = progress
+
+    # -- a new session ---------------------------------------------------------------------------
+    def start(self, config: RigConfig, spec: RigSpec) -> Outcome:
+        """Plan, check, create and record a new session in the folder, then finish it."""
+        schedule = plan_for(config)
+        problems = check_plan(config, schedule)
+        if problems:
+            raise PlanError("the schedule cannot excite every axis: " + "; ".join(problems))
+        self._refuse_existing()
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise NotASession(f"{self.folder}: cannot create the session folder: {exc.strerror}") from None
+        with contextlib.ExitStack() as held:
+            held.enter_context(session_lock(self.folder))
+            self._refuse_existing()
+            with table_lock(config.turntable.url), self.build_rig(config, spec) as rig:
+                rig.board.start()
+                truth = rig.truth_fn() if getattr(rig, "truth_fn", None) else None
+                meta = session_metadata(config, schedule, sim=spec.simulated,
+                                        seed=spec.seed if spec.simulated else None, time_scale=spec.time_scale)
+                meta.update(trial=spec.trial, chips=rig.board.settings())
+                if truth is not None:
+                    meta["truth"] = truth
+                store = held.enter_context(SessionStore.create(self.folder, meta))
+                try:
+                    if truth is not None:
+                        write_json(self.folder / "truth.json", truth)
+                except OSError as exc:
+                    return self._failed(store, exc, len(schedule))
+                outcome = self._record(rig, store, schedule, 0, resumed=False)
+            return outcome or self._finish(store, len(schedule))
+
+    def _refuse_existing(self) -> None:
+        if (self.folder / SESSION_FILE).exists():
+            raise NotASession(f"{self.folder}: a session already exists here; finish it with `rig resume "
+                              f"{self.folder}` or choose another --out")
+
+    # -- resuming --------------------------------------------------------------------------------
+    def resume(self) -> Outcome:
+        """Record what an interrupted session lacks (from its last hold, held again), then finish it."""
+        if not (self.folder / SESSION_FILE).is_file():
+            SessionStore.open(self.folder).close()          # raises NotASession naming what is wrong
+        with contextlib.ExitStack() as held:
+            held.enter_context(session_lock(self.folder))    # another process on it: refused, nothing touched
+            store = held.enter_context(SessionStore.open(self.folder))
+            meta = store.metadata
+            if meta.get("status") in FINISHED_STATUSES:
+                raise InputError(f"{self.folder}: the session is already finished (status {meta['status']}, "
+                                 f"verdict {meta.get('verdict', 'n/a')}); nothing to resume")
+            try:
+                config = config_from_dict(meta["config"])
+                schedule = [Orientation(**o) for o in meta["schedule"]]
+            except (KeyError, TypeError, ValueError) as exc:
+                raise InputError(f"{store.path}: the session's metadata cannot be read back ({exc})") from None
+            done = store.completed_holds()
+            if done and max(done) + 1 >= len(schedule):
+                return self._finish(store, len(schedule))
+            store.keep_reserve()
+            with contextlib.ExitStack() as hardware:
+                try:
+                    hardware.enter_context(table_lock(config.turntable.url))
+                    rig = hardware.enter_context(self.build_rig(config, RigSpec.from_metadata(meta)))
+                    rig.board.start()
+                except Busy:
+                    raise
+                except RigError as exc:
+                    self._mark(store, "failed", f"resume failed before recording: {exc}")
+                    raise
+                except Exception as exc:
+                    return self._failed(store, exc, len(schedule), prefix="resume failed before recording: ")
+                outcome = self._record(rig, store, schedule, max(done) if done else 0, resumed=True)
+            return outcome or self._finish(store, len(schedule))
+
+    # -- recording -------------------------------------------------------------------------------
+    def _record(self, rig, store: SessionStore, schedule: list[Orientation], start: int, *,
+                resumed: bool) -> Outcome | None:
+        """Record holds `start..`; None when all are recorded, else the Outcome of the stop or fault."""
+        n = len(schedule)
+        try:
+            store.set_status("running", "resumed" if resumed else "")
+            t0 = 0.0
+            if resumed:
+                last = store.last_time()
+                t0 = 0.0 if last is None else last + RESUME_GAP_S
+                store.mark_resume(t0, last, f"rig resume, from hold {start} (held again)")
+            stats = record(rig, store, schedule, start_step=start, session_t0=t0, progress=self.progress)
+            store.update_metadata(acquisition=_added(store.metadata.get("acquisition"), stats))
+        except KeyboardInterrupt as exc:
+            signum = getattr(exc, "signum", signal.SIGINT)
+            reason = f"stopped by {signal_name(signum)}; the table was stopped and disabled"
+            reason = self._mark(store, "aborted", reason)
+            return Outcome(self.folder, "aborted", reason, holds=len(store.completed_holds()), n_holds=n,
+                           signum=signum)
+        except Exception as exc:
+            return self._failed(store, exc, n, url=getattr(rig.table, "url", None))
+        return None
+
+    # -- finishing -------------------------------------------------------------------------------
+    def _finish(self, store: SessionStore, n_holds: int) -> Outcome:
+        """Calibrate what is recorded, write calibration.json and the report, record status and verdict."""
+        meta = store.metadata
+        holds = len(store.completed_holds())
+        try:
+            session = store.to_session_data()
+            result = calibrate_session(session, method=self.method, settle_s=0.0)
+            truth = meta.get("truth")
+            limits = (meta.get("config") or {}).get("limits")
+            evaluation = evaluate(session, result.sensors, gravity=session.gravity, field_uT=session.field_uT,
+                                  truth=truth, limits=limits)
+            verdict = evaluation.verdict
+            status = "rejected" if verdict == "FAIL" else "complete"
+            reason = ("verdict FAIL: " + "; ".join(evaluation.failing())) if status == "rejected" else ""
+            unit = meta.get("unit", {})
+            cal_path = write_session_calibration(self.folder, result, gravity=session.gravity,
+                                                 field_uT=session.field_uT, unit_serial=unit.get("serial"),
+                                                 board=unit.get("board"),
+                                                 extra={"session": str(self.folder), "verdict": verdict})
+            report = write_report(self.folder, session, result.sensors, gravity=session.gravity,
+                                  field_uT=session.field_uT, truth=truth, limits=limits, evaluation=evaluation,
+                                  metadata={**meta, "status": status, "status_reason": reason, "verdict": verdict})
+        except KeyboardInterrupt as exc:
+            signum = getattr(exc, "signum", signal.SIGINT)
+            reason = self._mark(store, "aborted", f"stopped by {signal_name(signum)} while calibrating; every hold is "
+                                "recorded, `rig resume` calibrates them")
+            return Outcome(self.folder, "aborted", reason, holds=holds, n_holds=n_holds, signum=signum)
+        except CalibrationError as exc:
+            return self._failed(store, exc, n_holds, prefix="the recorded session cannot be calibrated: ")
+        except Exception as exc:
+            return self._failed(store, exc, n_holds, prefix="calibration: ")
+        reason = self._mark(store, status, reason, verdict=verdict, calibration=cal_path.name, report=report.name)
+        store.release_reserve()
+        return Outcome(self.folder, status, reason, verdict=verdict, holds=holds, n_holds=n_holds,
+                       summary=list(result.summary), warnings=list(result.warnings),
+                       truth_lines=truth_errors(result.sensors, truth) if truth else [],
+                       written=[cal_path, report])
+
+    # -- status ----------------------------------------------------------------------------------
+    def _failed(self, store: SessionStore | None, exc: BaseException, n_holds: int, prefix: str = "",
+                url: str | None = None) -> Outcome:
+        known = isinstance(exc, (RigError, OSError)) or type(exc).__module__.startswith("drivers")
+        log = None if known else self._write_traceback(exc)
+        reason = prefix + describe(exc, url) + (f" (traceback in {log})" if log else "")
+        holds = 0
+        if store is not None:
+            reason = self._mark(store, "failed", reason)
+            try:
+                holds = len(store.completed_holds())
+            except RigError:
+                pass
+        return Outcome(self.folder, "failed", reason, holds=holds, n_holds=n_holds, error=exc, error_log=log)
+
+    def _mark(self, store: SessionStore, status: str, reason: str, **extra) -> str:
+        """Record the status; if even that fails, say so in the reason rather than hide the first problem."""
+        try:
+            store.set_status(status, reason, **extra)
+        except RigError as exc:
+            return f"{reason} (and the status could not be recorded: {exc})"
+        return reason
+
+    def _write_traceback(self, exc: BaseException) -> Path | None:
+        path = self.folder / ERROR_LOG
+        text = "".join(traceback.format_exception(exc))
+        try:
+            with open(path, "a") as f:
+                f.write(f"--- {dt.datetime.now().astimezone().isoformat(timespec='seconds')}\n{text}")
+        except OSError:
+            return None
+        return path
+
+
+def describe(exc: BaseException, url: str | None = None) -> str:
+    """A fault in one line: its own message for the rig's errors, its kind and message for anything else,
+    with the notes attached on the way (e.g. that the table could not be made safe). Where the message tells a
+    programmer what to call (the e-stop's "call reset()"), the operator is told the command instead."""
+    if isinstance(exc, OSError) and exc.strerror:
+        text = f"{exc.filename + ': ' if exc.filename else ''}{exc.strerror}"
+    else:
+        text = str(exc) if isinstance(exc, RigError) else f"{type(exc).__name__}: {exc}"
+    if "call reset()" in text:
+        text = text.replace("call reset()", f"clear it with `rig table --url {url or 'URL'} reset`")
+    notes = getattr(exc, "__notes__", None) or []
+    return "; ".join([text, *notes])
+
+
+def _added(before: dict | None, stats: dict) -> dict:
+    """Acquisition figures summed over the runs of a session."""
+    if not before:
+        return dict(stats)
+    return {k: before.get(k, 0) + v if isinstance(v, (int, float)) else v for k, v in stats.items()}
+
+
+def truth_errors(sensors: dict, truth: dict) -> list[str]:
+    """Each sensor's H and B error against the simulator's truth, in per cent (Frobenius norm)."""
+    lines = []
+    for name, cal in sensors.items():
+        t = truth["sensors"].get(name)
+        if not t:
+            continue
+        H, B = np.array(t["H"]), np.array(t["B"])
+        eH = np.linalg.norm(cal.H - H) / np.linalg.norm(H) * 100
+        eB = np.linalg.norm(cal.B - B) / max(np.linalg.norm(B), 1e-12) * 100
+        lines.append(f"{name}: against the simulator's truth: H error {eH:.4f} % (Frobenius), B error {eB:.4f} %")
+    return lines

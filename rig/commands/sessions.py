@@ -1,0 +1,45 @@
+"""A session folder as the commands read it: the rig's own (`session.sqlite`) or an interchange one
+(`meta.json` + `samples.csv`), so every command takes the folder the rig wrote without an export first."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rig.errors import InputError
+from rig.session_data import SessionData
+
+
+def is_rig_session(folder: Path) -> bool:
+    from rig.store import SESSION_FILE
+
+    return (Path(folder) / SESSION_FILE).is_file()
+
+
+def read_any_session(folder: Path) -> SessionData:
+    """The session in `folder`, whichever of the two layouts it is in; InputError naming the folder if neither."""
+    folder = Path(folder)
+    if is_rig_session(folder):
+        from rig.store import SessionStore
+
+        with SessionStore.open(folder) as store:
+            return session_from_store(store)
+    if (folder / "meta.json").is_file() or (folder / "samples.csv").is_file():
+        from rig.io.session_csv import read_session
+
+        return read_session(folder)
+    raise InputError(f"{folder}: not a session folder (neither a rig session, session.sqlite, nor an interchange "
+                     "session, meta.json + samples.csv)")
+
+
+def session_from_store(store) -> SessionData:
+    """The store's session with what the interchange layout carries beside the arrays: the sample rate and the
+    table's axes (`meta["table"]`), taken from the configuration snapshot."""
+    data = store.to_session_data()
+    config = data.meta.get("config") or {}
+    geometry = config.get("geometry") or {}
+    if data.sample_rate_hz is None and (config.get("schedule") or {}).get("rate_hz"):
+        data.sample_rate_hz = float(config["schedule"]["rate_hz"])
+    table = {k: geometry[k] for k in ("outer_axis_world", "inner_axis_fixture") if k in geometry}
+    if table:
+        data.meta.setdefault("table", table)
+    return data

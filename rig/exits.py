@@ -1,0 +1,92 @@
+"""The exit codes of every `rig` command (the table in README, "Exit codes"), how errors map onto them, and
+the option types that refuse bad numbers at the command line.
+
+    0    done; a session complete with verdict PASS (or no limits to check)
+    1    done, but a check failed: the calibration's verdict is FAIL (`rig plan`: the schedule is blind)
+    2    bad input: an option, a configuration, a data or session folder; nothing was changed
+    3    failed: a fault of the hardware, the link, the data or the disk; what was recorded is kept
+    4    busy: the session folder or the turntable is in use by another process (named)
+    70   internal error: a bug; one line on the terminal, the traceback in a file
+    128+N  aborted by signal N: 129 SIGHUP, 130 SIGINT (Ctrl-C), 143 SIGTERM; the table stopped and disabled
+"""
+
+from __future__ import annotations
+
+import enum
+import signal
+
+import click
+
+
+class Exit(enum.IntEnum):
+    OK = 0
+    FAIL = 1
+    BAD_INPUT = 2
+    FAILED = 3
+    BUSY = 4
+    INTERNAL = 70
+
+
+def aborted(signum: int | None) -> int:
+    """The exit code of a run stopped by `signum` (SIGINT when unknown)."""
+    return 128 + int(signum if signum is not None else signal.SIGINT)
+
+
+class CommandError(click.ClickException):
+    """A message and the exit code it deserves (click's own errors exit 1, which here means a FAIL verdict)."""
+
+    def __init__(self, message: str, code: int = Exit.FAILED) -> None:
+        super().__init__(message)
+        self.exit_code = int(code)
+
+
+def code_for(exc: BaseException) -> int:
+    """The exit code of an error raised by the rig's code."""
+    from rig.errors import Busy, InputError
+
+    if isinstance(exc, Busy):
+        return Exit.BUSY
+    if isinstance(exc, InputError):
+        return Exit.BAD_INPUT
+    return Exit.FAILED
+
+
+def command_error(exc: BaseException, prefix: str = "") -> CommandError:
+    """`exc` as a CommandError with its message (plain numbers, not numpy reprs) and its exit code."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return CommandError(prefix + (f"{exc.filename}: " if exc.filename else "") + exc.strerror, code_for(exc))
+    return CommandError(prefix + plain(str(exc)), code_for(exc))
+
+
+def plain(text: str) -> str:
+    """Messages built with repr() of numpy scalars read 'np.float64(1.5)'; a user wants '1.5'."""
+    import re
+
+    text = re.sub(r"np\.(?:float|int|uint|complex|str_|bool_?)\d*\(([^()]*)\)", r"\1", text)
+    return re.sub(r"np\.(True|False)_", r"\1", text)
+
+
+class FiniteFloat(click.ParamType):
+    """A finite number, optionally within [low, high] (open at an end with low_open / high_open): click's
+    FloatRange lets NaN through, and `--time-scale nan` must be refused here, not deep inside a session."""
+
+    name = "number"
+
+    def __init__(self, low: float | None = None, high: float | None = None, *, low_open: bool = False,
+                 high_open: bool = False) -> None:
+        self.low, self.high, self.low_open, self.high_open = low, high, low_open, high_open
+
+    def convert(self, value, param, ctx):
+        import math
+
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        if self.low is not None and (number < self.low or (self.low_open and number == self.low)):
+            self.fail(f"{value} must be {'>' if self.low_open else '>='} {self.low:g}", param, ctx)
+        if self.high is not None and (number > self.high or (self.high_open and number == self.high)):
+            self.fail(f"{value} must be {'<' if self.high_open else '<='} {self.high:g}", param, ctx)
+        return number
