@@ -92,6 +92,7 @@ def one_seed(seed: int) -> dict:
     """Table III totals of one simulated unit, the RTS smoother bound on the same inputs, and how alike the
     UKF's and the ahrs EKF's error series are (per-axis correlation over the evaluated rows)."""
     from procedures.validation import validate_on_rig
+    from rig.assembly import build_rig
     from rig.attitude.evaluate import aligned_signals
     from rig.attitude.smoother import smooth_attitude
     from rig.attitude.compare import compare
@@ -100,7 +101,7 @@ def one_seed(seed: int) -> dict:
     from rig.io.session_csv import read_session
 
     with tempfile.TemporaryDirectory() as d, contextlib.redirect_stdout(io.StringIO()):
-        result, _ = validate_on_rig(Path(d), load_config(), sim=True, seed=seed, plots=False, echo=lambda *_: None)
+        result, _ = validate_on_rig(Path(d), load_config(), sim=True, seed=seed, plots=False, echo=lambda *_: None, build_rig=build_rig)
         session = read_session(Path(d) / "trajectory")
         ours = triads_from_calibration(read_calibration(Path(d) / "calibration" / "calibration.json"))
     totals = {}

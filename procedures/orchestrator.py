@@ -34,7 +34,7 @@ from rig.errors import Busy, CalibrationError, InputError, RigError, signal_name
 from rig.locks import session_lock, table_lock
 from rig.pipeline import calibrate_session
 from rig.pipeline.writing import write_session_calibration
-from rig.report import evaluate, write_report
+from rig.report.calibration_report import evaluate, write_report
 from rig.store import SESSION_FILE, NotASession, SessionStore
 from rig.store.session_store import FINISHED_STATUSES
 

@@ -16,7 +16,9 @@ import numpy as np
 from procedures.calibration import MotionSettings, run_session
 from procedures.planning import Orientation, plan_orientations, schedule_rotations
 from rig import __version__
+from rig.calibration.observability import check_schedule, move_axes_problem
 from rig.config import RigConfig
+from rig.io.atomic import write_text_atomic
 
 
 def motion_settings(config: RigConfig) -> MotionSettings:
@@ -48,8 +50,6 @@ def check_plan(config: RigConfig, schedule: list[Orientation]) -> list[str]:
     must span all three fixture axes. The magnetometer's field direction is unknown until calibrated, so it
     is not checked here (a schedule that excites the accelerometer on a tumble table excites it too).
     """
-    from rig.calibration.observability import check_schedule, move_axes_problem
-
     R = schedule_rotations(schedule, config.geometry)
     problems = []
     rep = check_schedule(R, reference_world=(0.0, 0.0, 1.0))
@@ -83,6 +83,4 @@ def record(rig, store, schedule: list[Orientation], *, start_step: int = 0, sess
 
 
 def write_json(path: Path, data: dict) -> None:
-    from rig.io.atomic import write_text_atomic
-
     write_text_atomic(path, json.dumps(data, indent=2) + "\n")

@@ -19,14 +19,23 @@ from pathlib import Path
 
 import numpy as np
 
-from procedures.orchestrator import RigSpec, SessionOrchestrator
+from procedures.orchestrator import RigFactory, RigSpec, SessionOrchestrator
+from procedures.session import motion_settings
+from procedures.trajectory import run_trajectory
 from rig.attitude.compare import AXES
 from rig.attitude.evaluate import Row, SessionRows, peer_rows, session_rows, ukf_row
 from rig.attitude.peers import PEERS
+from rig.attitude.plots import attitude_plot, error_plot
 from rig.attitude.ukf import AttitudeEstimate, UKFSettings
+from rig.calibration.gyro import gyro_bias
+from rig.calibration.gyro_baselines import calibrate_gyro_trust_region
 from rig.calibration.result import TriadCalibration
+from rig.calibration.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
 from rig.errors import CalibrationError, StopSignal
+from rig.io.calibration_json import read_calibration, triads_from_calibration
+from rig.io.session_csv import write_session
 from rig.session_data import SessionData
+from rig.store import SessionStore
 
 OURS = "ours"
 
@@ -65,10 +74,6 @@ def nominal_calibration(chips: dict) -> dict[str, TriadCalibration]:
 def baseline_calibrations(cal_session: SessionData, ours: dict[str, TriadCalibration],
                           settle_s: float = 0.5) -> dict[str, dict[str, TriadCalibration]]:
     """SQP and sensor-frame-only calibrations from the same calibration session's holds and moves."""
-    from rig.calibration.gyro import gyro_bias
-    from rig.calibration.gyro_baselines import calibrate_gyro_trust_region
-    from rig.calibration.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
-
     norms = {"accel": cal_session.gravity, "mag": cal_session.field_uT}
     sqp, frame_only = {}, {}
     for name in ("accel", "mag"):
@@ -128,8 +133,6 @@ def write_outputs(out_dir: Path, result: ValidationResult, session: SessionData,
     doc = {**result.to_dict(), **(extra or {})}
     files = []
     if plots:
-        from rig.attitude.plots import attitude_plot, error_plot
-
         files = [attitude_plot(out_dir / "attitude.png", session, result),
                  error_plot(out_dir / "attitude_error.png", session, result)]
         doc["plots"] = [p.name for p in files]
@@ -166,9 +169,6 @@ def write_outputs(out_dir: Path, result: ValidationResult, session: SessionData,
 
 def run_trajectory_on(rig, config) -> SessionData:
     """The dynamic trajectory on a built rig; the session carries G, M and the chip settings."""
-    from procedures.session import motion_settings
-    from procedures.trajectory import run_trajectory
-
     rig.board.start()
     session = run_trajectory(rig.table, rig.board, rig.clock, config.geometry, motion_settings(config))
     session.gravity, session.field_uT = float(config.gravity_mps2), float(config.field_uT)
@@ -178,23 +178,14 @@ def run_trajectory_on(rig, config) -> SessionData:
 
 def validate_on_rig(out_dir: Path, config, *, sim: bool = True, seed: int = 0, calibration: Path | None = None,
                     method: str = "joint", peers: tuple[str, ...] = PEERS, plots: bool = True,
-                    settings: UKFSettings | None = None, echo=print, build_rig=None) -> tuple[ValidationResult, dict]:
+                    settings: UKFSettings | None = None, echo=print,
+                    build_rig: RigFactory) -> tuple[ValidationResult, dict]:
     """Calibrate the unit (or take `calibration`), record the trajectory on it, write the Table III report.
 
     Simulated: the calibration session and the trajectory run on the same simulated unit (the seed
     fixes its sensor errors; the trajectory uses another noise trial). `build_rig(config, RigSpec)` makes
-    the rig (the command passes its factory; by default `rig.assembly`'s).
+    the rig (the application's `rig.assembly.build_rig`).
     """
-    from rig.io.calibration_json import read_calibration, triads_from_calibration
-    from rig.io.session_csv import write_session
-
-    if build_rig is None:
-        from rig.assembly import build_real, build_sim
-
-        def build_rig(config, spec):
-            return (build_sim(config, seed=spec.seed or 0, trial=spec.trial, time_scale=spec.time_scale)
-                    if spec.simulated else build_real(config))
-
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     if calibration is None:
@@ -235,8 +226,6 @@ def _methods(sensors: dict[str, TriadCalibration]) -> str:
 
 def _calibration_session(doc: dict, calibration: Path) -> SessionData | None:
     """The session a calibration file came from, when it is still beside it (for the baseline rows)."""
-    from rig.store import SessionStore
-
     for folder in (doc.get("session"), calibration.parent):
         if folder and (Path(folder) / "session.sqlite").exists():
             return SessionStore.open(Path(folder)).to_session_data()

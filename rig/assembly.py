@@ -204,3 +204,11 @@ def _link(config: RigConfig, clock: Clock, url: str | None = None) -> TurntableL
 def truth_after_start(rig: Rig) -> dict | None:
     """The simulator's truth in counts; only meaningful once the board started (ranges decide the counts)."""
     return None if rig.truth_fn is None else rig.truth_fn()
+
+
+def build_rig(config: RigConfig, spec) -> Rig:
+    """The rig factory a session orchestrator is given (`procedures.orchestrator.RigFactory`): the simulated rig
+    for a simulated spec (its seed, noise trial and time scale), else the real one."""
+    if spec.simulated:
+        return build_sim(config, seed=spec.seed or 0, trial=spec.trial, time_scale=spec.time_scale)
+    return build_real(config)

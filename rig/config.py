@@ -13,6 +13,7 @@ from pathlib import Path
 
 from rig.board import placements
 from rig.boards import BOARDS as BOARD_SPECS
+from rig.report.limits import LimitsError, validate_limits
 from rig.rotations import TableGeometry
 
 BOARDS = tuple(BOARD_SPECS)
@@ -150,8 +151,6 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
             raise ValueError(f"{where}: [turntable] {key} must be positive")
     if cfg.schedule.hold_s <= 0 or cfg.schedule.rate_hz <= 0:
         raise ValueError(f"{where}: [schedule] hold_s and rate_hz must be positive")
-    from rig.report.limits import LimitsError, validate_limits
-
     try:
         validate_limits(cfg.limits)
     except LimitsError as e:

@@ -13,9 +13,13 @@ the option types that refuse bad numbers at the command line.
 from __future__ import annotations
 
 import enum
+import math
+import re
 import signal
 
 import click
+
+from rig.errors import Busy, InputError
 
 
 class Exit(enum.IntEnum):
@@ -42,8 +46,6 @@ class CommandError(click.ClickException):
 
 def code_for(exc: BaseException) -> int:
     """The exit code of an error raised by the rig's code."""
-    from rig.errors import Busy, InputError
-
     if isinstance(exc, Busy):
         return Exit.BUSY
     if isinstance(exc, InputError):
@@ -60,8 +62,6 @@ def command_error(exc: BaseException, prefix: str = "") -> CommandError:
 
 def plain(text: str) -> str:
     """Messages built with repr() of numpy scalars read 'np.float64(1.5)'; a user wants '1.5'."""
-    import re
-
     text = re.sub(r"np\.(?:float|int|uint|complex|str_|bool_?)\d*\(([^()]*)\)", r"\1", text)
     return re.sub(r"np\.(True|False)_", r"\1", text)
 
@@ -77,8 +77,6 @@ class FiniteFloat(click.ParamType):
         self.low, self.high, self.low_open, self.high_open = low, high, low_open, high_open
 
     def convert(self, value, param, ctx):
-        import math
-
         try:
             number = float(value)
         except (TypeError, ValueError):

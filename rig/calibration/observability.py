@@ -16,6 +16,7 @@ import numpy as np
 
 from rig.calibration.ellipsoid import SPREAD_RATIO_MIN, later_pairs, refuse_coplanar
 from rig.errors import CalibrationError
+from rig.rotations import rotvec_from_matrix
 
 AXES = ("x", "y", "z")
 INFO_RATIO_MIN = 1e-6
@@ -186,8 +187,6 @@ def move_axes_problem(known_rotations: np.ndarray) -> str | None:
     The known rotations (k, 3, 3) must turn the fixture about three independent axes: the smallest singular
     value of their stacked rotation vectors, relative to the largest, must not vanish.
     """
-    from rig.rotations import rotvec_from_matrix
-
     phi = rotvec_from_matrix(np.asarray(known_rotations, dtype=float).reshape(-1, 3, 3))
     if len(phi) < 3:
         return f"only {len(phi)} moves; at least 3 turning about independent axes are needed"

@@ -65,12 +65,11 @@ def stop_signals_raise():
 
 
 def build_rig(config: RigConfig, spec):
-    """The rig factory the orchestrator is given: the simulated rig or the real one (rig.assembly decides how)."""
-    from rig.assembly import build_real, build_sim
+    """The orchestrator's rig factory (`rig.assembly.build_rig`), loaded when a session runs: `calibrate --from`
+    never needs the simulated hardware or the turntable link."""
+    from rig import assembly
 
-    if spec.simulated:
-        return build_sim(config, seed=spec.seed or 0, trial=spec.trial, time_scale=spec.time_scale)
-    return build_real(config)
+    return assembly.build_rig(config, spec)
 
 
 def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, seed: int = 0,

@@ -20,7 +20,7 @@ def repeatability(sim, config_path, trials, out, seed, method, orientations):
     """Run TRIALS sessions on one unit and report the mean and standard deviation of B and H (paper Fig. 7)."""
     from rig.commands.calibrate import _config, run_session_to
     from rig.exits import Exit
-    from rig.report import write_repeatability_report
+    from rig.report.repeatability import write_repeatability_report
 
     if not sim and not config_path:
         raise click.UsageError("give --sim or --config rig.toml")

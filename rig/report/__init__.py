@@ -1,9 +1,5 @@
-"""Calibration and repeatability reports: Markdown with PNG figures (matplotlib, Agg canvas)."""
+"""Calibration and repeatability reports: Markdown with PNG figures (matplotlib, Agg canvas).
 
-from rig.report.calibration_report import Evaluation, evaluate, write_report
-from rig.report.limits import LimitCheck, LimitsError, check_limits, validate_limits, verdict
-from rig.report.metrics import METRICS
-from rig.report.repeatability import write_repeatability_report
-
-__all__ = ["Evaluation", "evaluate", "METRICS", "LimitCheck", "LimitsError", "check_limits", "validate_limits", "verdict", "write_report",
-           "write_repeatability_report"]
+Import from the modules (`calibration_report`, `limits`, `metrics`, `repeatability`): the package itself loads
+nothing, so reading the limits of a configuration does not load matplotlib.
+"""

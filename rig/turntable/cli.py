@@ -7,12 +7,15 @@ Commands that drive or power the table (move, home, enable, disable, reset) take
 
 from __future__ import annotations
 
+import contextlib
+
 import click
 
 from rig.exits import CommandError, Exit, FiniteFloat, code_for, plain
 from rig.errors import RigError
+from rig.locks import table_lock
 from rig.turntable.client import TurntableLink
-from rig.turntable.errors import EStopActive, TurntableError
+from rig.turntable.errors import EStopActive
 
 
 class NumbersAsArguments(click.Command):
@@ -68,10 +71,6 @@ def _run(ctx: click.Context, action, motion: bool = False, locked: bool = True) 
     A failed motion command also makes the table safe (stop, disable); a successful one leaves the
     servos on so the axes hold the position the operator asked for.
     """
-    import contextlib
-
-    from rig.locks import table_lock
-
     url = ctx.obj["url"]
     try:
         with table_lock(url) if locked else contextlib.nullcontext():

@@ -7,6 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from procedures.validation import validate_on_rig
+from rig.assembly import build_rig
 from rig.attitude.compare import AXES
 from rig.commands.attitude import attitude
 from rig.config import load_config
@@ -18,7 +19,7 @@ DECLINATION_DEG = 10.0   # the simulated world's (fixtures/world/model.py Enviro
 @pytest.fixture(scope="module")
 def validation(tmp_path_factory):
     out = tmp_path_factory.mktemp("validate")
-    result, doc = validate_on_rig(out, load_config(), sim=True, seed=0, echo=lambda *_: None)
+    result, doc = validate_on_rig(out, load_config(), sim=True, seed=0, echo=lambda *_: None, build_rig=build_rig)
     return out, result, doc
 
 
@@ -63,7 +64,7 @@ def test_ours_against_the_ahrs_filters_on_the_same_data(validation):
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_the_ukf_beats_the_tuned_ahrs_ekf_on_other_units(seed, tmp_path):
-    result, _ = validate_on_rig(tmp_path, load_config(), sim=True, seed=seed, plots=False, echo=lambda *_: None)
+    result, _ = validate_on_rig(tmp_path, load_config(), sim=True, seed=seed, plots=False, echo=lambda *_: None, build_rig=build_rig)
     ekf = next(r for r in result.rows if r.filter == "ekf")
     assert _total(result.ours()) < _total(ekf)
 

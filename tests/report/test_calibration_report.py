@@ -11,7 +11,8 @@ from scipy.spatial.transform import Rotation
 from synthetic_session import G, M, ORIENTATIONS, TRUE, make_session, true_calibrations, truth_dict
 
 from rig.calibration.result import TriadCalibration
-from rig.report import LimitsError, write_report
+from rig.report.calibration_report import write_report
+from rig.report.limits import LimitsError
 from rig.rotations import TableGeometry
 
 SCALE = 1.01
