@@ -114,7 +114,7 @@ class SessionOrchestrator:
                 truth = rig.truth_fn() if getattr(rig, "truth_fn", None) else None
                 meta = session_metadata(config, schedule, sim=spec.simulated,
                                         seed=spec.seed if spec.simulated else None, time_scale=spec.time_scale)
-                meta.update(trial=spec.trial, chips=rig.board.settings())
+                meta.update(trial=spec.trial, chips=rig.board.settings(), table_url=getattr(rig.table, "url", None))
                 if truth is not None:
                     meta["truth"] = truth
                 store = held.enter_context(SessionStore.create(self.folder, meta))

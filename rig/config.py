@@ -18,6 +18,7 @@ from rig.rotations import TableGeometry
 
 BOARDS = tuple(BOARD_SPECS)
 SIM_CHOICES = ("fake", "real")
+TABLE_LINKS = ("tcp", "rtu-tcp", "rtu-pty")   # the fake table's line: Modbus TCP, RTU via a gateway, RTU on a serial line
 
 
 @dataclass
@@ -82,7 +83,7 @@ def load_config(path: str | Path | None = None) -> RigConfig:
 SECTIONS = {"unit": ("serial", "board", "operator"),
             "table": ("outer_axis_world", "inner_axis_fixture", "outer_zero_deg", "inner_zero_deg"),
             "environment": ("gravity_mps2", "field_uT"),
-            "turntable": None, "schedule": None, "limits": None, "chips": None, "sim": ("chips", "turntable")}
+            "turntable": None, "schedule": None, "limits": None, "chips": None, "sim": ("chips", "turntable", "table_link")}
 
 
 def _check_keys(raw: dict, where: str) -> None:
@@ -172,10 +173,14 @@ def config_from_dict(d: dict) -> RigConfig:
 
 
 def check_sim(board: str, sim: dict) -> None:
-    """[sim] chips = "fake" | "real" | {part = "fake" | "real"}, turntable = "fake" | "real"."""
+    """[sim] chips = "fake" | "real" | {part = "fake" | "real"}, turntable = "fake" | "real",
+    table_link = "tcp" | "rtu-tcp" | "rtu-pty" (how the rig reaches the fake table)."""
     table = sim.get("turntable")
     if table is not None and table not in SIM_CHOICES:
         raise ValueError(f"[sim] turntable = {table!r}; allowed: {list(SIM_CHOICES)}")
+    link = sim.get("table_link")
+    if link is not None and link not in TABLE_LINKS:
+        raise ValueError(f"[sim] table_link = {link!r}; allowed: {list(TABLE_LINKS)}")
     chips = sim.get("chips")
     if chips is None or chips in SIM_CHOICES:
         return

@@ -7,13 +7,21 @@ lost could start a second move, so only the caller knows whether a write may be 
 from __future__ import annotations
 
 import logging
+import os
+import socket
 from collections.abc import Callable
 
+import serial
 from pymodbus.exceptions import ConnectionException, ModbusException
 
 from rig.clock import Clock
 from rig.turntable.errors import CommunicationError, ModbusExceptionError, ResponseLost
 from rig.turntable.url import LinkAddress, make_client
+
+# pymodbus logs every failure it also reports by its return value or exception; the link reports each once, with
+# its cause, so pymodbus's own lines ("Repeating....") are not passed on to the terminal.
+logging.getLogger("pymodbus").addHandler(logging.NullHandler())
+logging.getLogger("pymodbus").propagate = False
 
 log = logging.getLogger(__name__)
 
@@ -39,14 +47,20 @@ class ModbusChannel:
         return self.client is not None
 
     def open(self) -> None:
+        """Connect, retrying with backoff (a table may still be booting); a serial device that does not exist
+        or cannot be opened is refused at once, since waiting will not make it appear."""
+        if self.address.scheme == "rtu":
+            _check_serial_device(self.address)
         self.client = make_client(self.address, self.timeout)
         for attempt in range(self.retries + 1):
             if self.client.connect():
                 return
-            self.backoff(attempt, f"connect to {self.address}")
+            if attempt < self.retries:
+                self.backoff(attempt, f"connect to {self.address}")
         self.client = None
-        raise CommunicationError(f"cannot connect to turntable at {self.address} "
-                                 f"after {self.retries + 1} attempts")
+        cause = connect_cause(self.address, self.timeout)
+        raise CommunicationError(f"cannot connect to the turntable at {self.address}: {cause} "
+                                 f"({self.retries + 1} attempts)")
 
     def close(self) -> None:
         if self.client is not None:
@@ -104,3 +118,30 @@ class ModbusChannel:
         delay = min(self.backoff_s * 2 ** attempt, self.backoff_max_s)
         log.warning("turntable: %s failed, retry %d/%d in %.3f s", what, attempt + 1, self.retries, delay)
         self.clock.sleep(delay)
+
+
+def _check_serial_device(address: LinkAddress) -> None:
+    device = address.device
+    if not os.path.exists(device):
+        raise CommunicationError(f"turntable at {address}: no such device {device} (is the adapter plugged in? "
+                                 "`ls /dev/tty*` lists the serial ports)")
+    if not os.access(device, os.R_OK | os.W_OK):
+        raise CommunicationError(f"turntable at {address}: permission denied on {device} (add the user to the "
+                                 "group that owns it, e.g. dialout)")
+
+
+def connect_cause(address: LinkAddress, timeout: float) -> str:
+    """Why a connection fails, in the operating system's words (pymodbus's connect() only says that it did)."""
+    if address.scheme == "rtu":
+        try:
+            serial.Serial(address.device, baudrate=address.baud).close()
+            return f"{address.device} opened on a second try, then the Modbus client could not use it"
+        except (serial.SerialException, OSError, ValueError) as exc:
+            return str(exc)
+    try:
+        with socket.create_connection((address.host, address.port), timeout=timeout):
+            return "the connection opened on a second try, then the Modbus client could not use it"
+    except socket.timeout:
+        return f"no answer within {timeout:g} s (host down, or a firewall drops the connection)"
+    except OSError as exc:
+        return exc.strerror or str(exc)

@@ -1,8 +1,8 @@
 """Link URLs: which transport, where, and with what serial settings.
 
 `tcp://HOST:PORT` is Modbus TCP; `rtu:///dev/ttyUSB0?baud=115200&parity=N&stopbits=1&bytesize=8` is RTU
-on a serial port through pyserial; `rtu+socket://HOST:PORT` is RTU framing over TCP through pyserial's
-`socket://` URL (serial gateways, and the fake turntable in tests, exercise the real RTU client code).
+on a serial port through pyserial; `rtu+socket://HOST:PORT` is RTU framing over TCP (serial-to-Ethernet gateways; the fake turntable serves it
+too, so the tests exercise the RTU framing).
 """
 
 from __future__ import annotations
@@ -12,6 +12,8 @@ from urllib.parse import parse_qs, urlsplit
 
 from pymodbus import FramerType
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
+
+from rig.turntable.rtu import LineSpeedSerialClient
 
 SCHEMES = ("tcp", "rtu", "rtu+socket")
 SERIAL_DEFAULTS = {"baud": 115200, "parity": "N", "stopbits": 1, "bytesize": 8}
@@ -30,8 +32,9 @@ class LinkAddress:
 
     @property
     def is_serial_client(self) -> bool:
-        """RTU framing through pyserial: stale bytes are flushed before each send, no reconnect needed."""
-        return self.scheme != "tcp"
+        """A serial device through pyserial: stale bytes are flushed before each send, no reconnect needed
+        (a gateway's TCP stream is dropped and reopened after a failure, like Modbus TCP)."""
+        return self.scheme == "rtu"
 
     def __str__(self) -> str:
         if self.scheme == "rtu":
@@ -99,14 +102,15 @@ def _serial_setting(url: str, key: str, text: str) -> int | str:
 
 
 def make_client(address: LinkAddress, timeout: float) -> ModbusTcpClient | ModbusSerialClient:
-    """A pymodbus sync client with its own retries OFF: the link retries, so a COMMAND is never re-sent blindly."""
+    """A pymodbus sync client with its own retries OFF: the link retries, so a COMMAND is never re-sent blindly.
+
+    RTU through a gateway is RTU framing on a TCP stream, so pymodbus's TCP transport carries it (pyserial's
+    `socket://` would hand the framer one byte per millisecond); a serial device gets the line-speed client.
+    """
     if address.scheme == "tcp":
         return ModbusTcpClient(address.host, port=address.port, timeout=timeout, retries=0)
     if address.scheme == "rtu+socket":
-        # pyserial's socket:// reports in_waiting as 0/1, so pymodbus reads one byte per receive
-        # interval (max(4 char times, 1 ms)): the default 115200 baud keeps that interval at 1 ms.
-        return ModbusSerialClient(f"socket://{address.host}:{address.port}", framer=FramerType.RTU,
-                                  baudrate=address.baud, timeout=timeout, retries=0)
-    return ModbusSerialClient(address.device, framer=FramerType.RTU, baudrate=address.baud,
-                              parity=address.parity, stopbits=address.stopbits, bytesize=address.bytesize,
-                              timeout=timeout, retries=0)
+        return ModbusTcpClient(address.host, port=address.port, framer=FramerType.RTU, timeout=timeout, retries=0)
+    return LineSpeedSerialClient(address.device, framer=FramerType.RTU, baudrate=address.baud,
+                                 parity=address.parity, stopbits=address.stopbits, bytesize=address.bytesize,
+                                 timeout=timeout, retries=0)

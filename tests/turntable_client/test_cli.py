@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import pytest
 from click.testing import CliRunner
 
@@ -47,3 +50,27 @@ def test_errors_exit_non_zero_with_message(tmp_path):
     with TurntableServer(fake) as srv:
         out = run(srv.url, "move", "0", "500")
         assert out.exit_code == 3 and "OUT_OF_LIMITS" in out.output and "ILLEGAL_DATA_VALUE (03)" in out.output
+
+
+def test_a_missing_serial_device_is_named_at_once(tmp_path):
+    """rtu:// to a device that does not exist: one line naming it, no retries, no pymodbus chatter."""
+    device = tmp_path / "ttyUSB9"
+    done = subprocess.run([sys.executable, "-m", "rig.cli", "table", "--url", f"rtu://{device}", "status"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 3
+    assert f"no such device {device}" in done.stderr
+    assert "attempts" not in done.stderr and "retry" not in done.stderr and "Repeating" not in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_a_refused_connection_names_the_cause(tmp_path):
+    import socket
+
+    with socket.socket() as s:          # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    done = subprocess.run([sys.executable, "-m", "rig.cli", "table", "--url", f"tcp://127.0.0.1:{port}", "status"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 3
+    assert f"tcp://127.0.0.1:{port}: Connection refused" in done.stderr
+    assert "Repeating" not in done.stderr and "Traceback" not in done.stderr

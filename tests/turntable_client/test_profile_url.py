@@ -101,7 +101,7 @@ def test_urls():
     default = parse_url("rtu:///dev/ttyS1")
     assert (default.baud, default.parity, default.stopbits, default.bytesize) == (115200, "N", 1, 8)
     sock = parse_url("rtu+socket://127.0.0.1:5020")
-    assert (sock.scheme, sock.host, sock.port, sock.is_serial_client) == ("rtu+socket", "127.0.0.1", 5020, True)
+    assert (sock.scheme, sock.host, sock.port, sock.is_serial_client) == ("rtu+socket", "127.0.0.1", 5020, False)
 
 
 @pytest.mark.parametrize("url,part", [
