@@ -77,7 +77,11 @@ def load_config(path: str | Path | None = None) -> RigConfig:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"{where}: not valid TOML: {e}") from None
-    return _from_dict(raw, where)
+    config = _from_dict(raw, where)
+    profile = config.turntable.profile
+    if path is not None and profile and not Path(profile).is_absolute():
+        config.turntable.profile = str(Path(path).parent / profile)     # beside the file that names it
+    return config
 
 
 SECTIONS = {"unit": ("serial", "board", "operator"),
