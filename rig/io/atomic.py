@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 
 
@@ -13,8 +14,9 @@ def _umask() -> int:
     return mask
 
 
-def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
-    """Write `text` to a temporary file beside `path`, fsync it, then `os.replace` it into place.
+def write_text_atomic(path: str | os.PathLike, text: str | Iterable[str]) -> Path:
+    """Write `text` (or its pieces, in order) to a temporary file beside `path`, fsync it, then `os.replace` it
+    into place. Pieces let a long recording be written without holding all its text at once.
 
     The file gets the permissions an ordinary `open()` would give (0666 less the umask): other programs
     read calibration files, and mkstemp's private 0600 would lock them out.
@@ -24,7 +26,11 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
     try:
         os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
+            if isinstance(text, str):
+                f.write(text)
+            else:
+                for piece in text:
+                    f.write(piece)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)

@@ -8,7 +8,6 @@ vectorised over whole columns; only when one fails is the column scanned for the
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import os
@@ -18,6 +17,7 @@ import numpy as np
 
 from rig.errors import SessionFormatError
 from rig.io.atomic import write_text_atomic
+from rig.io.columns import FIRST_DATA_LINE, cell_text, read_columns, read_header
 from rig.session_data import SENSOR_UNITS, SessionData
 
 FORMAT = "imu-session-csv/1"
@@ -30,40 +30,82 @@ PHASES = ("hold", "move")
 # A quaternion written with 6 significant digits is within ~1e-6 of unit norm; 1e-3 lets
 # tracker output through and still catches a swapped or missing component.
 QUAT_NORM_TOL = 1e-3
-FIRST_DATA_LINE = 2
+REFERENCES = ("table", "none")
+UNITS = {"accel": ("counts", "m/s^2"), "gyro": ("counts", "deg/s", "rad/s"), "mag": ("counts", "uT")}
+SEGMENT_KINDS = ("static", "rotation")
+SENSOR_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+# Plausible ranges: a value beyond them is a broken cell, not a measurement (epoch seconds up to the year 2286;
+# a temperature no electronics survive; 100 turns of an axis; counts of a 32-bit converter; 1000 g, 10^5 deg/s,
+# 10^5 uT in physical units).
+T_LIMIT_S = 1e10
+TEMP_RANGE_C = (-100.0, 250.0)
+SUPPLY_RANGE_V = (0.0, 100.0)
+ANGLE_LIMIT_DEG = 36000.0
+COUNT_LIMIT = 2.0 ** 32
+RAW_LIMITS = {"m/s^2": 1e4, "deg/s": 1e5, "rad/s": 2e3, "uT": 1e5}
+WRITE_BLOCK_ROWS = 50_000
 
 
 def read_session(folder: str | os.PathLike) -> SessionData:
-    """Load and validate one session folder; the result's `meta` keeps every key of meta.json."""
+    """Load and validate one session folder; the result's `meta` keeps every key of meta.json.
+
+    A recording without a turntable (`"reference": "none"`, session-csv.md) may lack the quaternion columns
+    (its `q_ref` is then NaN) and `phase`/`step` (then no row belongs to a known hold: `is_move` is true and
+    `step` is -1 on every row, and static intervals are found from the data or from `segments`).
+    """
     folder = Path(folder)
     meta = read_meta(folder / META_FILE)
     samples = folder / SAMPLES_FILE
-    header, cells = _read_cells(samples)
-    _check_header(samples, header, meta)
-    col = _ColumnParser(samples, cells)
+    header = read_header(samples)
+    free = meta.get("reference", "table") == "none"
+    _check_header(samples, header, meta, free)
+    has_q = QUAT_COLUMNS[0] in header
+    has_phase = "phase" in header
+    raw_names = [c for names in meta["sensors"].values() for c in names]
+    optional = [c for c in (*TABLE_COLUMNS, "temp_c", "vsupply_v") if c in header]
+    numeric = ["t", *(["step"] if has_phase else []), *(QUAT_COLUMNS if has_q else ()), *raw_names, *optional]
+    required = ("t", *(["step"] if has_phase else []), *(QUAT_COLUMNS if has_q and not free else ()))
+    counts = [c for name, names in meta["sensors"].items() if meta.get("units", {}).get(name, "counts") == "counts"
+              for c in names]
+    cols = read_columns(samples, header, numeric, ["phase"] if has_phase else [], required=required,
+                        integers=(*(["step"] if has_phase else []), *counts))
+    n = len(cols["t"])
 
-    t = col.floats("t")
+    t = cols["t"]
     _check_increasing(samples, t)
-    phase = col.text("phase")
-    bad = ~np.isin(phase, PHASES)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise SessionFormatError(samples, f"phase {str(phase[i])!r} is not 'hold' or 'move'", i + FIRST_DATA_LINE,
-                                 "phase")
-    step = col.integers("step")
-    _check_move_steps(samples, phase == "move", step)
-    _check_hold_runs(samples, phase == "hold", step)
-    q_ref = _quaternions(samples, col)
+    _check_range(samples, "t", t, -T_LIMIT_S, T_LIMIT_S, "s")
+    if has_phase:
+        phase = cols["phase"]
+        bad = ~np.isin(phase, PHASES)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise SessionFormatError(samples, f"phase {str(phase[i])!r} is not 'hold' or 'move'", i + FIRST_DATA_LINE,
+                                     "phase")
+        step = _integers(samples, "step", cols["step"])
+        _check_move_steps(samples, phase == "move", step)
+        _check_hold_runs(samples, phase == "hold", step)
+        is_move = phase == "move"
+    else:
+        step, is_move = np.full(n, -1, dtype=np.int64), np.ones(n, dtype=bool)
+    q_ref = _quaternions(samples, cols, allow_empty=free) if has_q else np.full((n, 4), np.nan)
 
-    raw = {name: _sensor_counts(samples, col, name, names) for name, names in meta["sensors"].items()}
+    units = meta.get("units", {})
+    raw = {name: _sensor_values(samples, cols, name, names, units.get(name, "counts"))
+           for name, names in meta["sensors"].items()}
     table_deg = None
-    if TABLE_COLUMNS[0] in cells:
-        table_deg = np.column_stack([col.floats(c, allow_empty=True) for c in TABLE_COLUMNS])
-    temp_c = col.floats("temp_c", allow_empty=True) if "temp_c" in cells else None
-    vsupply_v = col.floats("vsupply_v", allow_empty=True) if "vsupply_v" in cells else None
+    if TABLE_COLUMNS[0] in header:
+        table_deg = np.column_stack([cols[c] for c in TABLE_COLUMNS])
+        for c in TABLE_COLUMNS:
+            _check_range(samples, c, cols[c], -ANGLE_LIMIT_DEG, ANGLE_LIMIT_DEG, "deg")
+    temp_c = cols.get("temp_c")
+    if temp_c is not None:
+        _check_range(samples, "temp_c", temp_c, *TEMP_RANGE_C, "degC")
+    vsupply_v = cols.get("vsupply_v")
+    if vsupply_v is not None:
+        _check_range(samples, "vsupply_v", vsupply_v, *SUPPLY_RANGE_V, "V")
 
     return SessionData(
-        t=t, is_move=phase == "move", step=step, q_ref=q_ref, raw=raw,
+        t=t, is_move=is_move, step=step, q_ref=q_ref, raw=raw,
         columns={name: list(names) for name, names in meta["sensors"].items()},
         gravity=float(meta["gravity_mps2"]),
         field_uT=float(meta["field_uT"]) if meta.get("field_uT") is not None else None,
@@ -114,6 +156,20 @@ def read_meta(path: Path) -> dict:
         _check_positive(meta["field_uT"], "field_uT", fail)
     if meta.get("sample_rate_hz") is not None:
         _check_positive(meta["sample_rate_hz"], "sample_rate_hz", fail)
+    reference = meta.get("reference", "table")
+    if reference not in REFERENCES:
+        fail("reference", f"must be one of {list(REFERENCES)}, got {reference!r}")
+    units = meta.get("units", {})
+    if not isinstance(units, dict):
+        fail("units", "must be an object: sensor -> unit of its raw columns")
+    for name, unit in units.items():
+        if name not in UNITS or unit not in UNITS[name]:
+            allowed = UNITS.get(name)
+            fail(f"units.{name}", f"unit {unit!r} for {name!r}; allowed: "
+                 + (", ".join(allowed) if allowed else f"a sensor among {sorted(UNITS)}"))
+    segments = meta.get("segments")
+    if segments is not None:
+        _check_segments(segments, fail)
     table = meta.get("table")
     if table is not None:
         if not isinstance(table, dict):
@@ -124,6 +180,40 @@ def read_meta(path: Path) -> dict:
                                       and any(x != 0 for x in v)):
                 fail(f"table.{key}", "must be a non-zero 3-vector")
     return meta
+
+
+def _check_segments(segments, fail) -> None:
+    """The known facts of a recording without a turntable (session-csv.md): named intervals of t, in time order."""
+    if not isinstance(segments, list):
+        fail("segments", "must be a list of {name, t0, t1, kind, ...} objects")
+    last_t0 = -math.inf
+    for k, seg in enumerate(segments):
+        where = f"segments[{k}]"
+        if not isinstance(seg, dict):
+            fail(where, "must be an object", "segments")
+        name = seg.get("name", k)
+        label = f"{where} ({name})"
+        for key in ("t0", "t1"):
+            if not (_is_number(seg.get(key)) and math.isfinite(seg[key])):
+                fail(f"{label}.{key}", f"must be a finite number of seconds, got {seg.get(key)!r}", "segments")
+        if not seg["t0"] < seg["t1"]:
+            fail(f"{label}.t1", f"t1 = {seg['t1']!r} must be after t0 = {seg['t0']!r}", "segments")
+        if seg["t0"] < last_t0:
+            fail(f"{label}.t0", "segments must be listed in time order", "segments")
+        last_t0 = seg["t0"]
+        kind = seg.get("kind")
+        if kind not in SEGMENT_KINDS:
+            fail(f"{label}.kind", f"must be one of {list(SEGMENT_KINDS)}, got {kind!r}", "segments")
+        axis_key = "up" if kind == "static" else "axis"
+        if (kind == "rotation" or seg.get("up") is not None) and seg.get(axis_key) not in SENSOR_AXES:
+            fail(f"{label}.{axis_key}", f"must be one of {list(SENSOR_AXES)}, got {seg.get(axis_key)!r}", "segments")
+        if kind == "rotation" and not (_is_number(seg.get("angle_deg")) and math.isfinite(seg["angle_deg"])
+                                       and seg["angle_deg"] != 0):
+            fail(f"{label}.angle_deg", f"must be a non-zero number (signed, right-hand rule), got "
+                 f"{seg.get('angle_deg')!r}", "segments")
+        for key in ("tilt_deg_sd", "angle_deg_sd"):
+            if key in seg and not (_is_number(seg[key]) and math.isfinite(seg[key]) and seg[key] > 0):
+                fail(f"{label}.{key}", f"must be a positive number of degrees, got {seg[key]!r}", "segments")
 
 
 def _check_positive(value, key: str, fail) -> None:
@@ -143,46 +233,17 @@ def _line_of_key(text: str, key: str) -> int | None:
     return None
 
 
-def _read_cells(path: Path) -> tuple[list[str], dict[str, tuple[str, ...]]]:
-    """Header names and, per column, the cell strings of every data row."""
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise SessionFormatError(path, "missing: a session folder holds meta.json and samples.csv") from None
-    lines = text.splitlines()
-    while lines and not lines[-1].strip():
-        lines.pop()
-    if not lines:
-        raise SessionFormatError(path, "empty file: a header row is required", 1)
-    header = [h.strip() for h in next(csv.reader(lines[:1]))]
-    seen: set[str] = set()
-    for name in header:
-        if not name:
-            raise SessionFormatError(path, "empty column name in the header", 1)
-        if name in seen:
-            raise SessionFormatError(path, "column named twice in the header", 1, name)
-        seen.add(name)
-    rows = list(csv.reader(lines[1:]))
-    if not rows:
-        raise SessionFormatError(path, "no data rows after the header", 2)
-    widths = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
-    bad = np.flatnonzero(widths != len(header))
-    if bad.size:
-        i = int(bad[0])
-        column = header[widths[i]] if widths[i] < len(header) else None
-        raise SessionFormatError(path, f"row has {widths[i]} cells, the header has {len(header)}",
-                                 i + FIRST_DATA_LINE, column)
-    return header, dict(zip(header, zip(*rows)))
-
-
-def _check_header(path: Path, header: list[str], meta: dict) -> None:
-    for name in REQUIRED_COLUMNS:
+def _check_header(path: Path, header: list[str], meta: dict, free: bool) -> None:
+    required = ("t",) if free else REQUIRED_COLUMNS
+    for name in required:
         if name not in header:
             raise SessionFormatError(path, "required column missing from the header", 1, name)
-    present = [c in header for c in TABLE_COLUMNS]
-    if any(present) and not all(present):
-        missing = TABLE_COLUMNS[present.index(False)]
-        raise SessionFormatError(path, "table angle columns come as a pair; this one is missing", 1, missing)
+    for group in (QUAT_COLUMNS, ("phase", "step"), TABLE_COLUMNS):
+        present = [c in header for c in group]
+        if any(present) and not all(present):
+            missing = group[present.index(False)]
+            raise SessionFormatError(path, f"columns {', '.join(group)} come together; this one is missing", 1,
+                                     missing)
     for sensor, names in meta["sensors"].items():
         for name in names:
             if name not in header:
@@ -190,67 +251,30 @@ def _check_header(path: Path, header: list[str], meta: dict) -> None:
                                          1, name)
 
 
-class _ColumnParser:
-    """Typed, validated views of the cell strings of one samples.csv."""
+def _check_range(path: Path, name: str, values: np.ndarray, lo: float, hi: float, unit: str) -> None:
+    """Finite is not enough: a 1e308 temperature passes every parser and breaks every fit after it."""
+    bad = (values < lo) | (values > hi)
+    if bad.any():
+        i = int(np.argmax(bad))
+        line = i + FIRST_DATA_LINE
+        raise SessionFormatError(path, f"{cell_text(path, line, name)} {unit} is outside the plausible range "
+                                 f"{lo:g} .. {hi:g} {unit}", line, name)
 
-    def __init__(self, path: Path, cells: dict[str, tuple[str, ...]]) -> None:
-        self.path, self.cells = path, cells
 
-    def text(self, name: str) -> np.ndarray:
-        return np.asarray([c.strip() for c in self.cells[name]])
-
-    def floats(self, name: str, allow_empty: bool = False) -> np.ndarray:
-        values, rows, n = self._nonempty(name, allow_empty)
-        out = np.full(n, np.nan)
-        out[rows] = self._convert(name, values, rows, float, "is not a number")
-        bad = ~np.isfinite(out[rows])
-        if bad.any():
-            i = int(rows[np.argmax(bad)])
-            raise SessionFormatError(self.path, f"{self.cells[name][i]!r} is not a finite number (leave the cell "
-                                     "empty for 'no sample')", i + FIRST_DATA_LINE, name)
-        return out
-
-    def integers(self, name: str, allow_empty: bool = False) -> np.ndarray:
-        """int64 values; with allow_empty, floats with NaN in the empty cells."""
-        values, rows, n = self._nonempty(name, allow_empty)
-        vals = self._convert(name, values, rows, np.int64, "is not an integer")
-        if not allow_empty:
-            return vals
-        out = np.full(n, np.nan)
-        out[rows] = vals
-        return out
-
-    def _nonempty(self, name: str, allow_empty: bool) -> tuple[list[str], np.ndarray, int]:
-        """The non-empty cells of a column and their row indices (an empty cell is exactly '')."""
-        cells = self.cells[name]
-        if "" not in cells:
-            return list(cells), np.arange(len(cells)), len(cells)
-        filled = np.fromiter(map(len, cells), dtype=np.int64, count=len(cells)) > 0
-        if not allow_empty:
-            i = int(np.argmin(filled))
-            raise SessionFormatError(self.path, "empty cell; this column needs a value on every row",
-                                     i + FIRST_DATA_LINE, name)
-        rows = np.flatnonzero(filled)
-        return [cells[i] for i in rows], rows, len(cells)
-
-    def _convert(self, name: str, values: list[str], rows: np.ndarray, dtype, message: str) -> np.ndarray:
-        try:
-            return np.array(values, dtype=dtype)
-        except (ValueError, OverflowError):
-            for value, i in zip(values, rows):
-                try:
-                    np.array([value], dtype=dtype)
-                except (ValueError, OverflowError):
-                    raise SessionFormatError(self.path, f"{value!r} {message}", int(i) + FIRST_DATA_LINE,
-                                             name) from None
-            raise
+def _integers(path: Path, name: str, values: np.ndarray) -> np.ndarray:
+    bad = values != np.round(values)
+    if bad.any():
+        i = int(np.argmax(bad))
+        line = i + FIRST_DATA_LINE
+        raise SessionFormatError(path, f"{cell_text(path, line, name)!r} is not an integer", line, name)
+    return values.astype(np.int64)
 
 
 def _check_increasing(path: Path, t: np.ndarray) -> None:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1
-        raise SessionFormatError(path, f"t = {t[i]!r} s is not after the previous row's t = {t[i - 1]!r} s "
+        raise SessionFormatError(path, f"t = {float(t[i])!r} s is not after the previous row's t = {float(t[i - 1])!r} s "
                                  "(t must increase monotonically)", i + FIRST_DATA_LINE, "t")
 
 
@@ -282,10 +306,18 @@ def _check_hold_runs(path: Path, is_hold: np.ndarray, step: np.ndarray) -> None:
         seen[j] = int(r)
 
 
-def _quaternions(path: Path, col: _ColumnParser) -> np.ndarray:
-    q = np.column_stack([col.floats(c) for c in QUAT_COLUMNS])
+def _quaternions(path: Path, cols: dict[str, np.ndarray], allow_empty: bool = False) -> np.ndarray:
+    """Unit quaternions, w >= 0; a recording without a turntable may leave whole rows empty (NaN)."""
+    q = np.column_stack([cols[c] for c in QUAT_COLUMNS])
+    empty = np.isnan(q)
+    partial = empty.any(axis=1) & ~empty.all(axis=1)
+    if partial.any() or (empty.any() and not allow_empty):
+        i = int(np.argmax(partial if partial.any() else empty.any(axis=1)))
+        raise SessionFormatError(path, "empty cell; the quaternion needs all four components", i + FIRST_DATA_LINE,
+                                 QUAT_COLUMNS[int(np.argmax(empty[i]))])
+    have = ~empty.any(axis=1)
     norm = np.linalg.norm(q, axis=1)
-    bad = np.abs(norm - 1.0) > QUAT_NORM_TOL
+    bad = have & (np.abs(norm - 1.0) > QUAT_NORM_TOL)
     if bad.any():
         i = int(np.argmax(bad))
         raise SessionFormatError(path, f"quaternion norm {norm[i]:.6g} is not 1 (tolerance {QUAT_NORM_TOL:g})",
@@ -294,9 +326,10 @@ def _quaternions(path: Path, col: _ColumnParser) -> np.ndarray:
     return np.where(q[:, :1] < 0, -q, q)  # q and -q are one rotation; conventions.md stores w >= 0
 
 
-def _sensor_counts(path: Path, col: _ColumnParser, sensor: str, names: list[str]) -> np.ndarray:
-    """Raw counts of one sensor, NaN on rows where it had no new sample (all three cells empty)."""
-    y = np.column_stack([col.integers(c, allow_empty=True) for c in names])
+def _sensor_values(path: Path, cols: dict[str, np.ndarray], sensor: str, names: list[str], unit: str) -> np.ndarray:
+    """One sensor's raw values, NaN on rows where it had no new sample (all three cells empty): integer counts,
+    or values already in `unit` (meta.json "units")."""
+    y = np.column_stack([cols[c] for c in names])
     have = ~np.isnan(y)
     partial = have.any(axis=1) & ~have.all(axis=1)
     if partial.any():
@@ -304,42 +337,67 @@ def _sensor_counts(path: Path, col: _ColumnParser, sensor: str, names: list[str]
         missing = names[int(np.argmin(have[i]))]
         raise SessionFormatError(path, f"sensor {sensor!r} has some but not all of its cells on this row",
                                  i + FIRST_DATA_LINE, missing)
+    limit = RAW_LIMITS.get(unit, COUNT_LIMIT)
+    for k, name in enumerate(names):
+        values = y[:, k]
+        if unit == "counts":
+            bad = have[:, k] & (values != np.round(values))
+            if bad.any():
+                i = int(np.argmax(bad))
+                line = i + FIRST_DATA_LINE
+                raise SessionFormatError(path, f"{cell_text(path, line, name)!r} is not an integer count (values "
+                                         f"already in physical units need \"units\": {{\"{sensor}\": ...}} in "
+                                         "meta.json)", line, name)
+        _check_range(path, name, np.where(have[:, k], values, 0.0), -limit, limit, unit)
     return y
 
 
 def write_session(session: SessionData, folder: str | os.PathLike, extra_meta: dict | None = None) -> Path:
     """Write `session` as an interchange folder (created if needed); returns the folder.
 
-    Raw counts are written as integers and NaN as empty cells; keys of `session.meta` that the
-    layout does not define are kept, `extra_meta` is merged last.
+    Raw counts are written as integers (values in physical units, per `meta["units"]`, as floats) and NaN as
+    empty cells; a recording without a reference (all `q_ref` NaN) is written without quaternion columns, and
+    one without known holds (every row `step` -1) without `phase`/`step`. Keys of `session.meta` that the
+    layout does not define are kept, `extra_meta` is merged last. Rows are formatted a block at a time, so a
+    long recording is never held in memory as text.
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     meta = _meta_for(session, extra_meta)
     _check_writable(session)
-    columns: dict[str, list[str]] = {
-        "t": _format_floats(session.t, "t"),
-        "phase": np.where(session.is_move, "move", "hold").tolist(),
-        "step": [str(int(s)) for s in np.asarray(session.step).tolist()],
-    }
+    n = len(session.t)
+    units = meta.get("units", {})
+    columns: dict[str, object] = {"t": (session.t, _format_floats, False)}
+    if not (np.asarray(session.step) == -1).all():
+        columns["phase"] = (session.is_move, lambda v, name, allow: np.where(v, "move", "hold").tolist(), False)
+        columns["step"] = (np.asarray(session.step), lambda v, name, allow: [str(int(x)) for x in v.tolist()], False)
     q = np.asarray(session.q_ref, dtype=float)
-    for k, name in enumerate(QUAT_COLUMNS):
-        columns[name] = _format_floats(q[:, k], name)
+    if not np.isnan(q).all():
+        for k, name in enumerate(QUAT_COLUMNS):
+            columns[name] = (q[:, k], _format_floats, meta.get("reference") == "none")
     if session.table_deg is not None:
         for k, name in enumerate(TABLE_COLUMNS):
-            columns[name] = _format_floats(session.table_deg[:, k], name, allow_nan=True)
+            columns[name] = (session.table_deg[:, k], _format_floats, True)
     for sensor, names in session.columns.items():
+        fmt = _format_counts if units.get(sensor, "counts") == "counts" else _format_floats
         for k, name in enumerate(names):
-            columns[name] = _format_counts(session.raw[sensor][:, k], name)
+            columns[name] = (session.raw[sensor][:, k], fmt, True)
     if session.temp_c is not None:
-        columns["temp_c"] = _format_floats(session.temp_c, "temp_c", allow_nan=True)
+        columns["temp_c"] = (session.temp_c, _format_floats, True)
     if session.vsupply_v is not None:
-        columns["vsupply_v"] = _format_floats(session.vsupply_v, "vsupply_v", allow_nan=True)
-    lengths = {len(v) for v in columns.values()}
-    if len(lengths) != 1:
-        raise ValueError(f"session columns differ in length: { {k: len(v) for k, v in columns.items()} }")
-    lines = [",".join(columns)] + [",".join(row) for row in zip(*columns.values())]
-    write_text_atomic(folder / SAMPLES_FILE, "\n".join(lines) + "\n")
+        columns["vsupply_v"] = (session.vsupply_v, _format_floats, True)
+    for name, (values, _, _) in columns.items():
+        if len(values) != n:
+            raise ValueError(f"session column {name!r} has {len(values)} rows, t has {n}")
+
+    def pieces():
+        yield ",".join(columns) + "\n"
+        for lo in range(0, n, WRITE_BLOCK_ROWS):
+            block = [fmt(values[lo:lo + WRITE_BLOCK_ROWS], name, allow) for name, (values, fmt, allow)
+                     in columns.items()]
+            yield "".join(",".join(row) + "\n" for row in zip(*block))
+
+    write_text_atomic(folder / SAMPLES_FILE, pieces())
     write_text_atomic(folder / META_FILE, json.dumps(meta, indent=2, default=_json_default) + "\n")
     return folder
 
@@ -349,7 +407,10 @@ def _check_writable(session: SessionData) -> None:
     bad = np.flatnonzero(np.diff(session.t) <= 0)
     if bad.size:
         raise ValueError(f"t must increase: row {int(bad[0]) + 1} t = {session.t[bad[0] + 1]!r} s")
-    norm = np.linalg.norm(np.asarray(session.q_ref, dtype=float), axis=1)
+    q = np.asarray(session.q_ref, dtype=float)
+    if session.meta.get("reference") == "none":
+        q = q[~np.isnan(q).any(axis=1)]
+    norm = np.linalg.norm(q, axis=1)
     bad = np.flatnonzero(~(np.abs(norm - 1.0) <= QUAT_NORM_TOL))
     if bad.size:
         raise ValueError(f"q_ref row {int(bad[0])} has norm {norm[bad[0]]!r}, not 1")
@@ -386,7 +447,7 @@ def _format_floats(values: np.ndarray, name: str, allow_nan: bool = False) -> li
     return [repr(v) if ok else "" for v, ok in zip(values.tolist(), finite.tolist())]
 
 
-def _format_counts(values: np.ndarray, name: str) -> list[str]:
+def _format_counts(values: np.ndarray, name: str, allow_nan: bool = True) -> list[str]:
     values = np.asarray(values, dtype=float)
     have = ~np.isnan(values)
     bad = have & ((values != np.round(values)) | ~np.isfinite(values))
