@@ -24,6 +24,7 @@ SUBCOMMANDS = {
     "validate": "rig.commands.attitude:validate",
     "table": "rig.turntable.cli:table",
     "sim-turntable": "fixtures.turntable.cli:sim_turntable",
+    "import": "rig.commands.importing:import_group",
 }
 
 

@@ -25,6 +25,12 @@ _SEPARATOR = re.compile(r"[,\s]+")
 
 def read_imu_tk(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     """Timestamps t (n,) in s and raw readings xyz (n, 3) of one imu_tk file; t strictly increasing."""
+    t, xyz, _ = read_imu_tk_lines(path)
+    return t, xyz
+
+
+def read_imu_tk_lines(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """As `read_imu_tk`, with the file line (1-based) each row came from, for messages about a row."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -48,7 +54,7 @@ def read_imu_tk(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
         i = int(back[0]) + 1
         raise SessionFormatError(path, f"timestamp {t[i]!r} is not after the previous row's {t[i - 1]!r}",
                                  numbers[i] + 1, "timestamp")
-    return t.copy(), data[:, 1:].copy()
+    return t.copy(), data[:, 1:].copy(), np.asarray(numbers) + 1
 
 
 def _locate_bad_row(path: Path, lines: list[str], numbers: list[int]) -> None:

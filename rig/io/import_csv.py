@@ -1,0 +1,67 @@
+"""Any logger's CSV as a recording without a turntable, given its column map on the command line.
+
+The user names the time column and its unit (or the sample rate, when the file has none), the three columns of
+each sensor and the units they are in; nothing is guessed from the data. Errors name the file, line and column.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from rig.errors import InputError, SessionFormatError
+from rig.io.columns import FIRST_DATA_LINE, read_columns, read_header
+from rig.io.recording import STANDARD_GRAVITY, check_counts, recording_session, to_session_units
+from rig.session_data import SessionData
+
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+
+
+def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units: dict[str, str],
+               time_column: str | None = None, time_unit: str = "s", rate_hz: float | None = None,
+               temp_column: str | None = None, delimiter: str = ",", gravity: float = STANDARD_GRAVITY,
+               field_uT: float | None = None) -> SessionData:
+    """`sensors`: sensor -> its three column names (sensor axes x, y, z); `units`: sensor -> unit of those."""
+    path = Path(path)
+    if (time_column is None) == (rate_hz is None):
+        raise InputError("give either --time COLUMN (with --time-unit) or --rate-hz R for a file without time stamps")
+    if time_unit not in TIME_UNITS:
+        raise InputError(f"--time-unit {time_unit!r}: one of {', '.join(TIME_UNITS)}")
+    if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise InputError(f"--rate-hz {rate_hz!r}: must be a positive number")
+    if "mag" in sensors and field_uT is None:
+        raise InputError("a magnetometer needs the local field magnitude: give --field-uT")
+    header = read_header(path, delimiter)
+    wanted = [*([time_column] if time_column else []), *(c for cols in sensors.values() for c in cols),
+              *([temp_column] if temp_column else [])]
+    for name in wanted:
+        if name not in header:
+            raise SessionFormatError(path, f"column {name!r} (named on the command line) is not in the header; it has "
+                                     f"{', '.join(header)}", 1, name)
+    if len(set(wanted)) != len(wanted):
+        twice = next(c for c in wanted if wanted.count(c) > 1)
+        raise InputError(f"column {twice!r} is named twice on the command line")
+    cols = read_columns(path, header, wanted, delimiter=delimiter,
+                        required=(*([time_column] if time_column else []),))
+    n = len(cols[wanted[0]])
+    if time_column:
+        t = cols[time_column] * TIME_UNITS[time_unit]
+        back = np.flatnonzero(np.diff(t) <= 0)
+        if back.size:
+            i = int(back[0]) + 1
+            raise SessionFormatError(path, f"time {cols[time_column][i]:g} {time_unit} is not after the previous row's "
+                                     f"{cols[time_column][i - 1]:g}", i + FIRST_DATA_LINE, time_column)
+    else:
+        t = np.arange(n) / float(rate_hz)
+    raw = {s: np.column_stack([cols[c] for c in names]) for s, names in sensors.items()}
+    lines = np.arange(n) + FIRST_DATA_LINE
+    check_counts(raw, units, {s: (str(path), names, lines) for s, names in sensors.items()})
+    raw, kept = to_session_units(raw, units)
+    rate = rate_hz if rate_hz is not None else (float(1.0 / np.median(np.diff(t))) if n > 1 else None)
+    return recording_session(t, raw, units=kept, gravity=gravity, field_uT=field_uT, sample_rate_hz=rate,
+                             temp_c=cols[temp_column] if temp_column else None, source=str(path),
+                             imported={"format": "csv", "file": str(path), "columns": sensors,
+                                       "units": units, "time": time_column or f"rows at {rate_hz:g} Hz",
+                                       **({"time_unit": time_unit} if time_column else {})})

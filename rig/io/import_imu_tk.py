@@ -1,0 +1,51 @@
+"""imu_tk's ASCII files (one per sensor, `timestamp x y z`) as a recording without a turntable.
+
+imu_tk samples its sensors together, so the files must share their time stamps row for row; nothing is known
+of the intervals (static intervals are found from the data), so the session has no segments.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from rig.errors import InputError, SessionFormatError
+from rig.io.imu_tk import read_imu_tk_lines
+from rig.io.recording import STANDARD_GRAVITY, check_counts, recording_session
+from rig.session_data import SessionData
+
+STAMP_TOLERANCE_S = 1e-6
+
+
+def import_imu_tk(files: dict[str, str | os.PathLike], *, gravity: float = STANDARD_GRAVITY,
+                  field_uT: float | None = None) -> SessionData:
+    """`files`: sensor ('accel', 'gyro', 'mag') -> its imu_tk file, read as raw counts."""
+    if "mag" in files and field_uT is None:
+        raise InputError("a magnetometer file needs the local field magnitude: give --field-uT")
+    t, raw, where = None, {}, {}
+    first = None
+    for sensor, path in files.items():
+        ts, xyz, lines = read_imu_tk_lines(path)
+        if t is None:
+            t, first = ts, Path(path)
+        elif len(ts) != len(t) or not np.allclose(ts, t, rtol=0, atol=STAMP_TOLERANCE_S):
+            row = _first_difference(t, ts)
+            raise SessionFormatError(path, f"time stamps differ from {first}'s ({len(ts)} rows against {len(t)}; "
+                                     "imu_tk files of one recording are sampled together)", int(lines[min(row, len(lines) - 1)]),
+                                     "timestamp")
+        raw[sensor] = xyz
+        where[sensor] = (str(path), ["x", "y", "z"], lines)
+    units = {s: "counts" for s in raw}
+    check_counts(raw, units, where)
+    rate = float(1.0 / np.median(np.diff(t))) if len(t) > 1 else None
+    return recording_session(t, raw, units=units, gravity=gravity, field_uT=field_uT, sample_rate_hz=rate,
+                             source=str(first),
+                             imported={"format": "imu_tk", "files": {s: str(p) for s, p in files.items()}})
+
+
+def _first_difference(a: np.ndarray, b: np.ndarray) -> int:
+    n = min(len(a), len(b))
+    diff = np.flatnonzero(np.abs(a[:n] - b[:n]) > STAMP_TOLERANCE_S)
+    return int(diff[0]) if diff.size else n
