@@ -14,6 +14,7 @@ from drivers._regs import I2cRegisters, SpiRegisters, check_not_floating, choose
 from drivers.contract import DataReady, Placement, Sensor, Wiring
 from drivers.errors import FifoOverrun, SensorFault, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit, ROBits, RWBit, RWBits
+from drivers.units import STANDARD_GRAVITY
 
 
 class ADXL312Registers(RegisterMap):
@@ -56,7 +57,6 @@ SELF_TEST_MIN_MG, SELF_TEST_MAX_MG = 300.0, 3400.0  # no-OS ADXL312_SELF_TEST_MI
 
 RANGE_CODES = {1.5: 0, 3: 1, 6: 2, 12: 3}
 RATE_CODES = {6.25: 0x6, 12.5: 0x7, 25: 0x8, 50: 0x9, 100: 0xA, 200: 0xB, 400: 0xC, 800: 0xD, 1600: 0xE, 3200: 0xF}
-STANDARD_GRAVITY = 9.80665
 LSB_PER_G = 345.0  # full resolution, every range (kernel 9.80665/345 m/s^2 per LSB; datasheet 2.9 mg/LSB typ)
 
 SPI_MODE = 3

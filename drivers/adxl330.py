@@ -11,8 +11,8 @@ from typing import Any, Callable, Sequence
 
 from drivers._analog import ADC_MID, check_plausible, validate_channels
 from drivers.contract import Placement, Sensor, SupplyMonitor, Wiring
+from drivers.units import STANDARD_GRAVITY
 
-STANDARD_GRAVITY = 9.80665
 RATIO_PER_G = 0.1          # sensitivity as a fraction of VS per g [U, ADXL335 sibling]
 RANGE_G = 3.0              # minimum full scale [D]
 TURN_ON_S = 0.02           # about 160 * C_filt + 1 ms with 0.1 uF filter caps [U]

@@ -22,6 +22,7 @@ from drivers._regs import I2cRegisters, StSpiRegisters, check_not_floating, choo
 from drivers.contract import DataReady, Part, Placement, Sensor, Thermometer, Wiring
 from drivers.errors import FifoOverrun, SensorFault, WrongIdentity
 from drivers.regmap import RegisterMap, Reg, ROBit, ROBits, RWBit, RWBits
+from drivers.units import STANDARD_GRAVITY
 
 
 class LSM6DSRegisters(RegisterMap):
@@ -78,7 +79,6 @@ WORD = 7                            # tag byte + 3 x 16-bit little-endian
 WORDS_PER_BURST = 4                 # 28 bytes: within the SMBus 32-byte block (Linux MAX_TAGGED_WORD_LEN)
 RESET_WAIT_S = BOOT_WAIT_S = 0.05   # Linux st_lsm6dsx_init_device: msleep(50) after SW_RESET and after BOOT
 TURN_ON_S = 0.07                    # gyro turn-on before the first sample kept [U]
-STANDARD_GRAVITY = 9.80665
 SPI_MODE, SPI_MAX_HZ = 3, 10_000_000
 
 _XYZ = struct.Struct("<hhh")

@@ -21,9 +21,9 @@ from scipy.spatial.transform import Rotation
 
 from rig.calibration.twostep import calibrate_two_step
 from rig.calibration.vector_baselines import calibrate_sqp
+from rig.units import STANDARD_GRAVITY
 
 ITERATIONS = (2, 5, 10, 15, 20, 30, 50)
-G = 9.80665
 NOISE_VARIANCE = 0.1
 N_ORIENTATIONS = 20
 # Reconstructed truth (not the paper's values), in the raw counts of the paper's own hardware: an ADXL330
@@ -31,7 +31,7 @@ N_ORIENTATIONS = 20
 # % scale error, ~1 % cross-axis and zero-g offsets of a few tens of counts.
 B_A = np.array([2075.0, 2013.0, 2099.0])
 H_A = np.linalg.inv(np.array([[41.2, 0.6, -0.4], [-0.3, 40.5, 0.7], [0.5, -0.8, 42.3]]))
-U_A1 = np.array([0.0, 0.0, G])
+U_A1 = np.array([0.0, 0.0, STANDARD_GRAVITY])
 
 
 def run_table1(runs: int = 1000, seed: int = 0, *, optimizer_runs: int | None = None) -> dict:
@@ -48,7 +48,7 @@ def run_table1(runs: int = 1000, seed: int = 0, *, optimizer_runs: int | None = 
         y = np.einsum("kji,j->ki", R, v) @ np.linalg.inv(H_A).T + B_A
         y += np.sqrt(NOISE_VARIANCE) * rng.standard_normal(y.shape)
         t0 = time.perf_counter()
-        cal = calibrate_two_step(y, R, G, max_iter=max(ITERATIONS), record_history=True)
+        cal = calibrate_two_step(y, R, STANDARD_GRAVITY, max_iter=max(ITERATIONS), record_history=True)
         t_ours += time.perf_counter() - t0
         hist = cal.extra["history"]
         b_err = np.linalg.norm(cal.B - B_A) / np.linalg.norm(B_A)
@@ -57,7 +57,7 @@ def run_table1(runs: int = 1000, seed: int = 0, *, optimizer_runs: int | None = 
             ours[r, i] = b_err, _h_err(hist[min(it, len(hist)) - 1])
         if r < n_opt:
             t0 = time.perf_counter()
-            sqp = calibrate_sqp(y, R, G, max_iter=max(ITERATIONS), record_history=True)
+            sqp = calibrate_sqp(y, R, STANDARD_GRAVITY, max_iter=max(ITERATIONS), record_history=True)
             t_opt += time.perf_counter() - t0
             steps = sqp.extra["history"] or [(sqp.B, sqp.H)]
             for i, it in enumerate(ITERATIONS):

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.rotations import TableGeometry
+from rig.trapezoid import trapezoid
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,5 @@ def estimate_duration(schedule: list[Orientation], *, hold_s: float, speed_dps: 
     total = hold_s * len(schedule)
     for p, q in zip(schedule[:-1], schedule[1:]):
         d = max(abs(q.outer_deg - p.outer_deg), abs(q.inner_deg - p.inner_deg))
-        t_ramp = speed_dps / accel_dps2
-        total += settle_s + (2 * math.sqrt(d / accel_dps2) if d < speed_dps * t_ramp else d / speed_dps + t_ramp)
+        total += settle_s + trapezoid(d, speed_dps, accel_dps2).duration
     return total

@@ -23,11 +23,6 @@ class Board(Protocol):
     def settings(self) -> dict: ...
 
 
-class AxisReading(Protocol):
-    axis: int
-    position_deg: float
-
-
 class Table(Protocol):
     """A two-axis table whose moves report every status poll to `on_poll(statuses)` and pass the time
     between polls through `wait(dt)`.

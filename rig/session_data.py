@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rig.outliers import isolated_outliers
+from rig.units import STANDARD_GRAVITY
 from rig.rotations import matrix_from_quat, quat_from_matrix
 
-SENSOR_UNITS = {"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"}
 
 
 @dataclass
@@ -89,7 +89,7 @@ class SessionData:
     q_ref: np.ndarray                   # (n, 4) fixture -> world, scalar first
     raw: dict[str, np.ndarray]          # sensor -> (n, 3) float, NaN where empty
     columns: dict[str, list[str]]       # sensor -> raw column names in sensor-axis order
-    gravity: float = 9.80665
+    gravity: float = STANDARD_GRAVITY
     field_uT: float | None = None
     sample_rate_hz: float | None = None
     table_deg: np.ndarray | None = None  # (n, 2) outer, inner

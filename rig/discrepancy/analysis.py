@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from rig.discrepancy.candidates import HELDOUT_UNIT, library
+from rig.discrepancy.candidates import library
 from rig.discrepancy.linear import TriadFit, fit_baseline
 from rig.discrepancy.observations import observations
 from rig.discrepancy.search import (ALPHA, DBIC_MAX, GAIN_MIN, WILCOXON_MAX, Accepted, SensorState,
@@ -19,6 +19,7 @@ from rig.discrepancy.search import (ALPHA, DBIC_MAX, GAIN_MIN, WILCOXON_MAX, Acc
 from rig.discrepancy.stats import heldout_gate, nested_test
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
+from rig.units import SENSOR_UNITS
 
 SCHEMA = "rig-discrepancy/1"
 SENSORS = ("accel", "gyro", "mag")
@@ -145,7 +146,7 @@ def finding(st: SensorState, i: int, acc: Accepted) -> dict:
     out = {"effect": acc.cand.effect, "sensor": "rig" if acc.cand.effect == "table_axis_misalignment" else st.sensor,
            "magnitude": mag, "unit": acc.cand.unit, "uncertainty": unc,
            "heldout_rms_before": gate.phys_before[kind], "heldout_rms_after": gate.phys_after[kind],
-           "heldout_unit": HELDOUT_UNIT[st.sensor], "evidence": evidence}
+           "heldout_unit": SENSOR_UNITS[st.sensor], "evidence": evidence}
     if acc.ambiguous_with:
         out["ambiguous_with"] = sorted(set(acc.ambiguous_with))
     return out

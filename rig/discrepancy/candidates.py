@@ -15,14 +15,11 @@ from typing import Callable
 import numpy as np
 
 from rig.discrepancy.linear import TriadFit
+from rig.units import DEG, REPORT_UNITS, STANDARD_GRAVITY
 from rig.discrepancy.observations import Observations
 
-DEG = np.pi / 180.0
-G0 = 9.80665
 AXES = ("x", "y", "z")
 # calibrated unit -> reported unit factor (divide)
-REPORT_UNIT = {"accel": ("m/s^2", 1.0), "gyro": ("deg/s", DEG), "mag": ("uT", 1.0)}
-HELDOUT_UNIT = {"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"}
 
 
 @dataclass
@@ -58,7 +55,7 @@ def _centred(x: np.ndarray) -> np.ndarray:
 
 
 def temperature_bias(sensor: str) -> Candidate:
-    unit, k = REPORT_UNIT[sensor]
+    unit, k = REPORT_UNITS[sensor]
     return Candidate("temperature_bias", sensor, lambda o, f: _per_axis(_centred(o.temp)), AXES,
                      lambda c: float(np.abs(c).max() / k), f"{unit} per degC",
                      lambda c: {"k": (c / k).tolist()},
@@ -75,7 +72,7 @@ def temperature_scale(sensor: str) -> Candidate:
 
 
 def bias_drift(sensor: str) -> Candidate:
-    unit, k = REPORT_UNIT[sensor]
+    unit, k = REPORT_UNITS[sensor]
     return Candidate("bias_drift", sensor, lambda o, f: _per_axis(_centred(o.t)), AXES,
                      lambda c: float(np.abs(c).max() * 3600.0 / k), f"{unit} per hour",
                      lambda c: {"d_per_hour": (c * 3600.0 / k).tolist()})
@@ -102,8 +99,8 @@ def gyro_g_sensitivity() -> Candidate:
             Z[:, a, 3 * a:3 * a + 3] = o.f
         return Z
     return Candidate("gyro_g_sensitivity", "gyro", cols, tuple(a for a in AXES for _ in range(3)),
-                     lambda c: float(np.linalg.svd(c.reshape(3, 3), compute_uv=False)[0] * G0 / DEG),
-                     "deg/s per g", lambda c: {"Gs_deg_s_per_g": (c.reshape(3, 3) * G0 / DEG).tolist()},
+                     lambda c: float(np.linalg.svd(c.reshape(3, 3), compute_uv=False)[0] * STANDARD_GRAVITY / DEG),
+                     "deg/s per g", lambda c: {"Gs_deg_s_per_g": (c.reshape(3, 3) * STANDARD_GRAVITY / DEG).tolist()},
                      note="vertical Earth rate aliases into an isotropic Gs = -(Omega_v / g) I")
 
 

@@ -43,11 +43,6 @@ class TestResult:
     q: int
 
 
-def _lstsq(X, y):
-    beta, *_ = np.linalg.lstsq(X, y, rcond=None)
-    return beta, y - X @ beta
-
-
 def orth(J: np.ndarray, tol: float = 1e-10) -> np.ndarray:
     """Orthonormal basis of the column space of J (columns scaled to unit norm first)."""
     if J.shape[1] == 0:

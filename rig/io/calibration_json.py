@@ -21,7 +21,7 @@ import rig
 from rig.calibration.result import TriadCalibration
 from rig.errors import RigError
 from rig.io.atomic import write_text_atomic
-from rig.session_data import SENSOR_UNITS
+from rig.units import SENSOR_UNITS
 
 SCHEMA = "rig-calibration/1"
 TOP_LEVEL_KEYS = ("schema", "created", "software", "unit", "gravity_mps2", "field_uT", "sensors")

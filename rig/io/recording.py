@@ -12,8 +12,8 @@ import numpy as np
 
 from rig.errors import InputError
 from rig.session_data import SessionData
+from rig.units import STANDARD_GRAVITY
 
-STANDARD_GRAVITY = 9.80665
 DEFAULT_COLUMNS = {"accel": ["ax", "ay", "az"], "gyro": ["gx", "gy", "gz"], "mag": ["mx", "my", "mz"]}
 # Units a user may name on import -> (unit the session keeps, factor): what the layout allows is kept as it is.
 IMPORT_UNITS = {

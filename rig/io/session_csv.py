@@ -18,7 +18,8 @@ import numpy as np
 from rig.errors import SessionFormatError
 from rig.io.atomic import write_text_atomic
 from rig.io.columns import FIRST_DATA_LINE, cell_text, read_columns, read_header
-from rig.session_data import SENSOR_UNITS, SessionData
+from rig.session_data import SessionData
+from rig.units import SENSOR_UNITS
 
 FORMAT = "imu-session-csv/1"
 META_FILE = "meta.json"

@@ -8,7 +8,7 @@ import numpy as np
 
 from rig.calibration.result import TriadCalibration
 from rig.pipeline.screening import vec
-from rig.session_data import SENSOR_UNITS
+from rig.units import SENSOR_UNITS
 
 
 @dataclass

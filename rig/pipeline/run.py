@@ -27,8 +27,8 @@ from rig.pipeline.solving import (METHODS, add_lever_arm, calibrate_gyro_triad, 
                                   reference_norm)
 from rig.pipeline.writing import write_session_calibration
 from rig.session_data import SessionData
+from rig.units import STANDARD_GRAVITY
 
-DEFAULT_GRAVITY = 9.80665
 
 
 def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: float = 0.5,
@@ -90,7 +90,7 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
         source = {"format": "imu-session-csv/1", "path": str(session_dir), "method": method, "settle_s": settle_s,
                   "gyro_samples": gyro_samples}
     elif fmt == "imu_tk":
-        g = DEFAULT_GRAVITY if gravity is None else float(gravity)
+        g = STANDARD_GRAVITY if gravity is None else float(gravity)
         result, source = _calibrate_imu_tk(session_dir, accel_file, gyro_file, g)
         field_uT = None
     else:

@@ -17,7 +17,8 @@ from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.pipeline.screening import trusted_moves
 from rig.rotations import matrix_from_quat
-from rig.session_data import SENSOR_UNITS, HoldStats, MoveStream, SessionData
+from rig.session_data import HoldStats, MoveStream, SessionData
+from rig.units import SENSOR_UNITS
 
 METHODS = ("two-step", "joint")
 MIN_HOLDS = {"two-step": 9,   # 9 parameters of the ellipsoid (twostep.MIN_ORIENTATIONS)

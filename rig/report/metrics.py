@@ -16,7 +16,8 @@ import numpy as np
 
 from rig.calibration.integrate import integrate_rotation
 from rig.calibration.result import TriadCalibration
-from rig.session_data import SENSOR_UNITS, SessionData
+from rig.session_data import SessionData
+from rig.units import SENSOR_UNITS
 
 STATIC_SENSORS = ("accel", "mag")
 

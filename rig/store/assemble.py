@@ -21,11 +21,11 @@ import sqlite3
 
 import numpy as np
 
+from rig.units import STANDARD_GRAVITY
 from rig.session_data import SessionData
 from rig.store import arrays
 from rig.store.segment import sensor_columns
 
-DEFAULT_GRAVITY = 9.80665
 
 RESUME_EVENT = "resume"
 
@@ -65,7 +65,7 @@ def assemble_session(db: sqlite3.Connection, metadata: dict, source: str) -> Ses
         q_ref=_concat(parts, "q_ref", (4,)),
         raw=raw,
         columns={s: sensor_columns(s, metadata) for s in sensors},
-        gravity=float(metadata.get("gravity_mps2", DEFAULT_GRAVITY)),
+        gravity=float(metadata.get("gravity_mps2", STANDARD_GRAVITY)),
         field_uT=None if metadata.get("field_uT") is None else float(metadata["field_uT"]),
         sample_rate_hz=None if metadata.get("sample_rate_hz") is None else float(metadata["sample_rate_hz"]),
         table_deg=_concat(parts, "table_deg", (2,)),

@@ -17,6 +17,7 @@ from rig.turntable.errors import (CommunicationError, EStopActive, IdentityError
                                   MoveRejected, MoveTimeout, ResponseLost, TableAlarm, TurntableError)
 from rig.turntable.profile import AXIS_REGISTER_TYPES, TableProfile, decode_bits, load_profile
 from rig.turntable.status import AxisStatus, TableStatus, decode_axis, int_to_words, words_to_int
+from rig.trapezoid import trapezoid
 from rig.turntable.url import parse_url
 
 log = logging.getLogger(__name__)
@@ -28,13 +29,7 @@ SEQ_MASK = 0xFFFF
 
 def profile_time(distance: float, speed: float, accel: float, decel: float) -> float:
     """Duration of a trapezoidal (or, if short, triangular) move from rest to rest."""
-    distance = abs(distance)
-    if distance == 0:
-        return 0.0
-    if distance >= speed ** 2 / (2 * accel) + speed ** 2 / (2 * decel):
-        return distance / speed + speed / (2 * accel) + speed / (2 * decel)
-    peak = math.sqrt(2 * distance * accel * decel / (accel + decel))
-    return peak / accel + peak / decel
+    return trapezoid(distance, speed, accel, decel).duration
 
 
 class TurntableLink:

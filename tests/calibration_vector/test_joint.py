@@ -105,7 +105,8 @@ def test_joint_calibrates_a_grid_schedule_the_two_step_ellipsoid_cannot(rng):
 def test_six_holds_without_two_step_start_reach_the_bound_not_a_wrong_minimum(seed):
     """Six random holds (too few for the ellipsoid): the three fixture-axis starts used before ended in a
     minimum with reduced chi-square 2e4-3e4 and H off by 200-1200 % on these two schedules."""
-    from procedures.paper_table1 import B_A, G, H_A
+    from procedures.paper_table1 import B_A, H_A
+    from rig.units import STANDARD_GRAVITY as G
     from rig.calibration.bounds import cramer_rao
     from scipy.spatial.transform import Rotation
     rng = np.random.default_rng(seed)
