@@ -29,6 +29,7 @@ COLUMNS = {"accel": ["acc_x", "acc_y", "acc_z"], "gyro": ["gyr_x", "gyr_y", "gyr
 TILT_SD_DEG = 2.0       # a face put down by hand: table tilt and a box not square to the unit
 TURN_SD_DEG = 2.0       # a full turn in four quarter turns against a box edge, by hand
 TURN_DEG = 360.0
+PART_GAP_S = 1.0        # between the pieces of a pre-cut file: the motion between them was not recorded
 
 
 def import_ferraris(*, rate_hz: float, units: dict[str, str], csv: str | os.PathLike | None = None,
@@ -51,20 +52,24 @@ def import_ferraris(*, rate_hz: float, units: dict[str, str], csv: str | os.Path
     if annotated is not None:
         path = Path(annotated)
         index, raw, spans = _annotated(path)
+        t = _pieces_apart(index / float(rate_hz), spans)
     else:
         path = Path(csv)
         index, raw = _continuous(path)
         spans = _sections(Path(sections), len(index))
+        t = index / float(rate_hz)
     lines = np.arange(len(index)) + FIRST_DATA_LINE
     check_counts(raw, units, {s: (str(path), names, lines) for s, names in COLUMNS.items()})
     raw, kept = to_session_units(raw, units)
-    t = index / float(rate_hz)
     segments = _segments(t, raw["gyro"], spans, turn_deg, tilt_sd_deg, turn_sd_deg)
     return recording_session(t, raw, units=kept, gravity=gravity, sample_rate_hz=float(rate_hz), source=str(path),
                              segments=segments,
                              imported={"format": "imucal-ferraris", "files": [str(p) for p in (csv, sections, annotated)
                                                                               if p is not None],
-                                       "units": units, "turn_sense": "from the data" if turn_deg is None else "given"})
+                                       "units": units, "turn_sense": "from the data" if turn_deg is None else "given",
+                                       **({"pieces": f"each part is a separate piece; {PART_GAP_S:g} s left between "
+                                                     "them (the motions between them were not recorded)"}
+                                          if annotated is not None else {})})
 
 
 def _continuous(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -104,6 +109,16 @@ def _annotated(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str,
                                      int(order[a]) + FIRST_DATA_LINE, "part")
         spans[name] = (int(a), int(b))
     return index, {s: np.column_stack([cols[c][order] for c in names]) for s, names in COLUMNS.items()}, spans
+
+
+def _pieces_apart(t: np.ndarray, spans: dict[str, tuple[int, int]]) -> np.ndarray:
+    """A pre-cut file numbers its samples on across the cuts (imucal's x_p ends at 1027 and x_a starts at 1028,
+    with no motion between): time restarts after a gap at every piece, so nothing reads the cut as a motion."""
+    out = t.copy()
+    for k, (a, _) in enumerate(sorted(spans.values())):
+        if k:
+            out[a:] += PART_GAP_S
+    return out
 
 
 def _sections(path: Path, rows: int) -> dict[str, tuple[int, int]]:

@@ -20,6 +20,7 @@ class SessionCalibration:
     summary: list[str] = field(default_factory=list)
     excluded_steps: dict[int, str] = field(default_factory=dict)
     holds_used: dict[str, int] = field(default_factory=dict)
+    raw_units: dict[str, str] = field(default_factory=dict)     # a recording's raw columns may be in SI units
 
 
 def summary_lines(result: SessionCalibration) -> list[str]:
@@ -28,8 +29,10 @@ def summary_lines(result: SessionCalibration) -> list[str]:
     for name, cal in result.sensors.items():
         unit = SENSOR_UNITS.get(name, "?")
         holds = result.holds_used.get(name)
+        raw = result.raw_units.get(name, "counts")
         head = f"{name}: {cal.method}" + (f", {holds} holds" if holds is not None else "")
         residual_unit = "rad per move" if name == "gyro" else unit   # gyro: rotation misfit of each move
+        residual_unit = cal.extra.get("residual_unit", residual_unit)
         head += f", residual_rms {cal.residual_rms:.3g} {residual_unit}, {cal.iterations} iterations"
         if "sample_model" in cal.extra:
             head += f", samples read as {cal.extra['sample_model']}"
@@ -38,12 +41,12 @@ def summary_lines(result: SessionCalibration) -> list[str]:
         if not cal.converged:
             head += " (NOT converged)"
         lines.append(head)
-        lines.append(f"  B = {vec(cal.B)} counts" + (f" +/- {vec(cal.B_std)}" if cal.B_std is not None else ""))
+        lines.append(f"  B = {vec(cal.B)} {raw}" + (f" +/- {vec(cal.B_std)}" if cal.B_std is not None else ""))
         H_std = np.asarray(cal.H_std) if cal.H_std is not None else None
         for i, row in enumerate(np.asarray(cal.H)):
             label = "  H = " if i == 0 else "      "
             lines.append(label + vec(row) + (f" +/- {vec(H_std[i])}" if H_std is not None else "")
-                         + (f"  {unit}/count" if i == 0 else ""))
+                         + (f"  {unit} per {raw.removesuffix('s') if raw == 'counts' else raw}" if i == 0 else ""))
         if "lever_arm_m" in cal.extra:
             verdict = "significant" if cal.extra.get("lever_arm_significant") else "not significant, not applied"
             verdict += f", p = {cal.extra.get('lever_arm_p_value', float('nan')):.2g}"

@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 
 from rig.calibration import turntable_free
+from rig.calibration.recording import calibrate_recording
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.io.imu_tk import read_imu_tk
@@ -39,6 +40,8 @@ def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: 
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if session.meta.get("reference") == "none":
+        return calibrate_without_table(session)
     check_finite(session)
     warnings: list[str] = []
     if settle_s > 0:
@@ -61,6 +64,18 @@ def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: 
     add_lever_arm(session, sensors, warnings)
     result = SessionCalibration(sensors, warnings, excluded_steps=excluded,
                                 holds_used={s: len(h.step) for s, h in holds.items()})
+    result.summary = summary_lines(result)
+    return result
+
+
+def calibrate_without_table(session: SessionData) -> SessionCalibration:
+    """A recording without a turntable (rig.calibration.recording): its poses, turns and motions."""
+    rec = calibrate_recording(session)
+    warnings = list(rec.warnings)
+    for name, cal in rec.sensors.items():
+        check_result(name, cal, reference_norm(session, name), warnings)
+    result = SessionCalibration(dict(rec.sensors), warnings, holds_used={s: len(rec.poses) for s in rec.sensors},
+                                raw_units=dict(session.meta.get("units", {})))
     result.summary = summary_lines(result)
     return result
 

@@ -1,0 +1,224 @@
+"""Calibrate a recording without a turntable from what its segments say (session-csv.md, "Recordings without a
+turntable"): static poses (with the axis that was up, and how far the hand may have tilted it), turns of known
+angle about a sensor axis, and the motions between poses; where nothing is said, imu_tk's turntable-free method
+with static intervals found in the data (`turntable_free`). The fits are in `recording_fits`.
+
+`leave_out` drops poses, turns or motions from the fit, by index in time order, so the same code scores what a
+calibration predicts for data it did not see (held-out prediction).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rig.calibration.recording_fits import (AXIS_VECTORS, carried_error, fit_faces, gyro_rotation_fit, turn_angle)
+from rig.calibration.result import TriadCalibration
+from rig.calibration.turntable_free import calibrate_turntable_free
+from rig.errors import CalibrationError
+from rig.session_data import MoveStream, SessionData
+
+DEFAULT_TILT_SD_DEG = 2.0
+DEFAULT_TURN_SD_DEG = 2.0
+GAP_FACTOR = 5.0          # a motion whose samples have a gap longer than this many sample periods is not whole
+
+
+@dataclass
+class Pose:
+    name: str
+    rows: np.ndarray          # indices of the pose's samples
+    up: str | None
+    tilt_sd_deg: float
+
+
+@dataclass
+class Turn:
+    name: str
+    rows: np.ndarray
+    axis: np.ndarray          # nominal unit axis, sensor frame
+    angle_rad: float
+    angle_sd_rad: float
+    axis_sd_rad: float
+
+
+@dataclass
+class RecordingCalibration:
+    """Per-sensor calibrations and what the recording contributed to them."""
+
+    sensors: dict[str, TriadCalibration]
+    poses: list[Pose]
+    turns: list[Turn]
+    carries: list[tuple[int, int]]                 # (pose index, next pose index) whose motion carried gravity
+    warnings: list[str] = field(default_factory=list)
+
+
+def segments_of(session: SessionData) -> tuple[list[Pose], list[Turn]]:
+    """The static poses and turns the session's segments name, in time order."""
+    poses, turns = [], []
+    tilts = [s.get("tilt_deg_sd", DEFAULT_TILT_SD_DEG) for s in session.meta.get("segments") or []
+             if s["kind"] == "static"]
+    axis_sd = np.radians(max(tilts) if tilts else DEFAULT_TILT_SD_DEG)
+    for seg in session.meta.get("segments") or []:
+        rows = np.flatnonzero((session.t >= seg["t0"]) & (session.t <= seg["t1"]))
+        if rows.size < 2:
+            continue
+        if seg["kind"] == "static":
+            poses.append(Pose(seg["name"], rows, seg.get("up"), float(seg.get("tilt_deg_sd", DEFAULT_TILT_SD_DEG))))
+        else:
+            turns.append(Turn(seg["name"], rows, np.array(AXIS_VECTORS[seg["axis"]], dtype=float),
+                              float(np.radians(seg["angle_deg"])),
+                              float(np.radians(seg.get("angle_deg_sd", DEFAULT_TURN_SD_DEG))), float(axis_sd)))
+    return poses, turns
+
+
+def calibrate_recording(session: SessionData, *, leave_out: dict | None = None) -> RecordingCalibration:
+    """Accelerometer (and magnetometer) from the static poses, gyroscope from turns and motions between poses.
+
+    leave_out: {"poses": [i, ...], "turns": [k, ...], "carries": [c, ...]} not used in the fit.
+    """
+    poses, turns = segments_of(session)
+    if not poses:
+        return _turntable_free(session)
+    leave_out = leave_out or {}
+    use_poses = [p for i, p in enumerate(poses) if i not in set(leave_out.get("poses", ()))]
+    sensors, warnings = {}, []
+    if "accel" not in session.raw:
+        raise CalibrationError(f"{session.source}: a recording needs its accelerometer for the static poses")
+    sensors["accel"] = _vector_fit(session, "accel", use_poses, session.gravity)
+    if "mag" in session.raw and session.field_uT:
+        sensors["mag"] = _vector_fit(session, "mag", use_poses, float(session.field_uT))
+    carries = _carries(session, poses)
+    if "gyro" in session.raw:
+        sensors["gyro"], used = _gyro_fit(session, sensors["accel"], poses, turns, carries, leave_out)
+        if not used["turns"] and not used["carries"]:
+            warnings.append("gyro: no turn of known angle and no whole motion between poses")
+    return RecordingCalibration(sensors, poses, turns, carries, warnings)
+
+
+def _pose_stats(session: SessionData, sensor: str, poses: list[Pose]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    y = session.raw[sensor]
+    means, se, counts = [], [], []
+    for p in poses:
+        v = y[p.rows]
+        v = v[~np.isnan(v).any(axis=1)]
+        if len(v) < 2:
+            raise CalibrationError(f"{sensor}: pose {p.name} has fewer than two samples")
+        means.append(v.mean(axis=0))
+        se.append(v.std(axis=0, ddof=1) / np.sqrt(len(v)))
+        counts.append(len(v))
+    return np.array(means), np.array(se), np.array(counts)
+
+
+def _vector_fit(session: SessionData, sensor: str, poses: list[Pose], norm: float) -> TriadCalibration:
+    means, se, counts = _pose_stats(session, sensor, poses)
+    ups = [p.up if sensor == "accel" else None for p in poses]
+    if sensor == "mag" or sum(u is not None for u in ups) < 3:
+        raise CalibrationError(f"{sensor}: fewer than three poses say which axis was up")
+    tilt_sd = np.radians([p.tilt_sd_deg for p in poses])
+    B, H, u, info = fit_faces(means, se, ups, tilt_sd, norm)
+    rows = np.concatenate([p.rows for p in poses])
+    y = session.raw[sensor][rows]
+    y = y[~np.isnan(y).any(axis=1)]
+    rms = float(np.sqrt(np.mean((np.linalg.norm((y - B) @ H.T, axis=1) - norm) ** 2)))
+    pose_err = np.linalg.norm((means - B) @ H.T, axis=1) - norm
+    cov = info["cov"]
+    return TriadCalibration(
+        B=B, H=H, method="recording-faces (norm, faces tilted within their prior)", residual_rms=rms,
+        iterations=info["iterations"], converged=info["converged"],
+        B_std=np.sqrt(np.clip(np.diag(cov)[:3], 0, None)), H_std=np.sqrt(np.clip(np.diag(cov)[3:], 0, None)).reshape(3, 3),
+        B_cov=cov[:3, :3], H_cov=cov[3:, 3:],
+        extra={"poses": [p.name for p in poses], "pose_tilt_deg": info["tilt_deg"],
+               "pose_norm_error": pose_err.tolist(), "gravity_direction": u.tolist(),
+               "samples": int(counts.sum())})
+
+
+def _carries(session: SessionData, poses: list[Pose]) -> list[tuple[int, int]]:
+    """Consecutive poses whose motion between them was recorded whole (no gap in the samples)."""
+    dt = float(np.median(np.diff(session.t)))
+    out = []
+    for i in range(len(poses) - 1):
+        a, b = poses[i].rows[-1], poses[i + 1].rows[0]
+        if b <= a:
+            continue
+        gaps = np.diff(session.t[a:b + 1])
+        if gaps.size and gaps.max() <= GAP_FACTOR * dt:
+            out.append((i, i + 1))
+    return out
+
+
+def _gyro_fit(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list[Turn],
+              carries: list[tuple[int, int]], leave_out: dict) -> tuple[TriadCalibration, dict]:
+    y = session.raw["gyro"]
+    stills = np.concatenate([p.rows for p in poses])
+    still = y[stills]
+    still = still[~np.isnan(still).any(axis=1)]
+    B = still.mean(axis=0)
+    B_std = still.std(axis=0, ddof=1) / np.sqrt(len(still))
+    skip_turns, skip_carries = set(leave_out.get("turns", ())), set(leave_out.get("carries", ()))
+    turn_terms = [(summed_rate(session, t.rows, B), t.axis, t.angle_rad, t.angle_sd_rad, t.axis_sd_rad)
+                  for k, t in enumerate(turns) if k not in skip_turns]
+    g = gravity_directions(session, accel, poses)
+    carry_terms = [(motion(session, poses[i], poses[j]), g[i], g[j]) for c, (i, j) in enumerate(carries)
+                   if c not in skip_carries]
+    H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms)
+    if info["rank"] < 9:
+        raise CalibrationError(f"gyro: the turns and motions left in the fit determine only {info['rank']} of H's 9 "
+                               "entries")
+    angle_err = [np.degrees(turn_angle(H, summed_rate(session, t.rows, B), t.axis) - t.angle_rad) for t in turns]
+    carry_err = [np.degrees(carried_error(H, B, motion(session, poses[i], poses[j]), g[i], g[j]))
+                 for i, j in carries]
+    resid = np.radians(np.r_[angle_err, carry_err])
+    cal = TriadCalibration(
+        B=B, H=H, method="recording-turns (known turns and gravity carried between poses)",
+        residual_rms=float(np.sqrt(np.mean(resid ** 2))) if resid.size else float("nan"),
+        iterations=info["iterations"], converged=info["converged"], B_std=B_std,
+        H_std=np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(3, 3), H_cov=cov,
+        extra={"turns": [t.name for t in turns], "turn_angle_error_deg": angle_err,
+               "carries": [[poses[i].name, poses[j].name] for i, j in carries], "carry_error_deg": carry_err,
+               "residual_unit": "rad (turn angles, carried gravity)"})
+    return cal, {"turns": len(turn_terms), "carries": len(carry_terms)}
+
+
+def summed_rate(session: SessionData, rows: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Sum of (y - B) dt over a turn's samples (rectangle rule): H of it is the turn's rotation vector."""
+    y = session.raw["gyro"][rows] - B
+    t = session.t[rows]
+    ok = ~np.isnan(y).any(axis=1)
+    y, t = y[ok], t[ok]
+    return (y[:-1] * np.diff(t)[:, None]).sum(axis=0)
+
+
+def gravity_directions(session: SessionData, accel: TriadCalibration, poses: list[Pose]) -> np.ndarray:
+    """Unit gravity direction of every pose from the calibrated accelerometer, (k, 3)."""
+    y = session.raw["accel"]
+    out = []
+    for p in poses:
+        v = y[p.rows]
+        a = accel.apply(v[~np.isnan(v).any(axis=1)].mean(axis=0, keepdims=True))[0]
+        out.append(a / np.linalg.norm(a))
+    return np.array(out)
+
+
+def motion(session: SessionData, a: Pose, b: Pose) -> MoveStream:
+    """The gyro stream from the last sample of pose a to the first of pose b."""
+    idx = np.arange(a.rows[-1], b.rows[0] + 1)
+    y = session.raw["gyro"][idx]
+    ok = ~np.isnan(y).any(axis=1)
+    return MoveStream(0, session.t[idx][ok], y[ok], np.eye(3), np.eye(3))
+
+
+def _turntable_free(session: SessionData) -> RecordingCalibration:
+    """No segments: imu_tk's method, static intervals detected in the data (a record starting at rest)."""
+    if "accel" not in session.raw or "gyro" not in session.raw:
+        raise CalibrationError(f"{session.source}: a recording without segments needs an accelerometer and a "
+                               "gyroscope (imu_tk's turntable-free method)")
+    accel, gyro = session.raw["accel"], session.raw["gyro"]
+    rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
+    sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity)
+    intervals = sensors["accel"].extra["intervals"]
+    index = np.flatnonzero(rows)
+    poses = [Pose(f"static {k}", index[a:b + 1], None, DEFAULT_TILT_SD_DEG) for k, (a, b) in enumerate(intervals)]
+    return RecordingCalibration(dict(sensors), poses, [], [(i, i + 1) for i in range(len(poses) - 1)],
+                                ["no segments: static intervals detected in the data (imu_tk's turntable-free "
+                                 "method; the record must start with a long rest)"])

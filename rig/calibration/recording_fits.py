@@ -1,0 +1,193 @@
+"""The fits behind a recording without a turntable: what a hand-held session's faces and turns can tell.
+
+Accelerometer from static poses, `H (y_k - B) = g u_k`: where a pose says which sensor axis was up, its gravity
+direction `u_k` is that axis tilted by a small unknown angle with the prior standard deviation the procedure
+gives (`tilt_deg_sd`: a hand-placed face is not at its nominal attitude, and taking it as exact puts the tilt
+into H); a pose without that knowledge only says `|H (y_k - B)| = g`. Maximum a posteriori over B, H and the
+tilts (Gauss-Newton by `least_squares`); the faces' priors fix the orientation of the frame that the norms alone
+leave free.
+
+Gyroscope: B from the static poses; H from what the recording knows of its motions. A turn of known angle
+about a sensor axis (imucal's Ferraris turns) gives `H m_k = theta_k a_k` with `m_k` the summed raw rate: the
+component along the axis to within the turn's `angle_deg_sd`, the components across it to within the angle
+times the face tilt (a hand turn's axis wanders as a face does). A motion between two static poses carries the
+gravity direction of one onto the other (imu_tk's criterion, `R^T g_0 = g_1`), which fixes what turns leave
+open. Both enter one weighted least-squares fit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from rig.calibration.gyro import MoveSet, integrated_quats
+from rig.errors import CalibrationError
+from rig.session_data import MoveStream
+
+AXIS_VECTORS = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0), "+z": (0, 0, 1),
+                "-z": (0, 0, -1)}
+MEAN_SE_FLOOR = 1e-4          # relative to the norm: the least a pose mean is trusted to (model error)
+CARRY_SD = 0.005              # unit-vector components: gravity carried across a motion by hand (0.3 deg)
+
+
+def tangent_basis(u: np.ndarray) -> np.ndarray:
+    """Two unit vectors perpendicular to u (2, 3)."""
+    a = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(u, a)
+    e1 /= np.linalg.norm(e1)
+    return np.array([e1, np.cross(u, e1)])
+
+
+def tilted(u: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """u turned by the small rotation of tangent components d (2,) (exact: a rotation of |d| rad)."""
+    v = tangent_basis(u).T @ d
+    angle = np.linalg.norm(v)
+    if angle == 0:
+        return u
+    axis = np.cross(u, v / angle)
+    return u * np.cos(angle) + np.cross(axis, u) * np.sin(angle)
+
+
+def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_rad: np.ndarray,
+              norm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """B, H, the fitted gravity directions u_k (k, 3) and details, from pose means (k, 3) with standard errors.
+
+    At least three poses must say which axis was up (their priors fix the frame); the others enter by their
+    norm only.
+    """
+    means = np.asarray(means, dtype=float)
+    known = [i for i, u in enumerate(ups) if u is not None]
+    if len(known) < 3:
+        raise CalibrationError(f"accel: {len(known)} poses say which axis was up; the face model needs 3")
+    if len(means) < 5:
+        raise CalibrationError(f"accel: {len(means)} static poses; at least 5 are needed for B and H with the face "
+                               "priors")
+    nominal = np.array([AXIS_VECTORS[ups[i]] for i in known], dtype=float)
+    # start: linear least squares of H y_k - c = g e_k over the poses with a known face (c = H B)
+    A = np.hstack([means[known], -np.ones((len(known), 1))])
+    X, *_ = np.linalg.lstsq(A, norm * nominal, rcond=None)
+    H0, c0 = X[:3].T, X[3]
+    if not np.linalg.det(H0) > 0:
+        raise CalibrationError("accel: the faces do not span three axes with a right-handed sensor")
+    B0 = np.linalg.solve(H0, c0)
+    scale = float(np.abs(np.diag(H0)).mean())
+    se = np.asarray(se, dtype=float)
+    n_known = len(known)
+    unknown = [i for i in range(len(means)) if ups[i] is None]
+
+    def unpack(p):
+        return p[:3], p[3:12].reshape(3, 3) * scale, p[12:].reshape(n_known, 2)
+
+    def residuals(p):
+        B, H, d = unpack(p)
+        a = (means - B) @ H.T
+        u = np.array([tilted(e, dk) for e, dk in zip(nominal, d)])
+        s = sigma_phys(H)
+        r_face = ((a[known] - norm * u) / s[known]).ravel()
+        r_norm = (np.linalg.norm(a[unknown], axis=1) - norm) / np.linalg.norm(s[unknown], axis=1) if unknown else []
+        return np.concatenate([r_face, r_norm, (d / tilt_sd_rad[known][:, None]).ravel()])
+
+    def sigma_phys(H):
+        """Standard error of each pose's calibrated mean, at least the floor for what the model leaves out."""
+        return np.maximum(np.sqrt((se ** 2) @ (H ** 2).T), MEAN_SE_FLOOR * norm)
+
+    p0 = np.concatenate([B0, (H0 / scale).ravel(), np.zeros(2 * n_known)])
+    res = least_squares(residuals, p0, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=2000)
+    B, H, d = unpack(res.x)
+    u = np.zeros_like(means)
+    a = (means - B) @ H.T
+    u[known] = [tilted(e, dk) for e, dk in zip(nominal, d)]
+    for i in unknown:
+        u[i] = a[i] / np.linalg.norm(a[i])
+    J = res.jac
+    dof = max(J.shape[0] - J.shape[1], 1)
+    cov = np.linalg.pinv(J.T @ J) * max(float(res.fun @ res.fun) / dof, 1.0)
+    cov_BH = cov[:12, :12] * np.r_[np.ones(3), np.full(9, scale)][:, None] * np.r_[np.ones(3), np.full(9, scale)][None]
+    tilt_deg = np.zeros(len(means))
+    tilt_deg[known] = np.degrees(np.linalg.norm(d, axis=1))
+    return B, H, u, {"tilt_deg": tilt_deg.tolist(), "cov": cov_BH, "converged": bool(res.status > 0),
+                     "iterations": int(res.nfev)}
+
+
+def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, float, float, float]],
+                      carries: list[tuple[MoveStream, np.ndarray, np.ndarray]], H0: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, dict]:
+    """H and its covariance from turns [(m_k summed raw rate * dt (3,), nominal axis (3,), angle rad, angle sd rad,
+    axis sd rad)] and motions carrying gravity [(raw stream, g_start unit, g_end unit)]."""
+    if not turns and not carries:
+        raise CalibrationError("gyro: no turn of known angle and no motion between static poses to calibrate H from")
+    M = np.array([m for m, *_ in turns]).reshape(-1, 3)
+    ms = MoveSet.build([c[0] for c in carries], B) if carries else None
+    g0 = np.array([c[1] for c in carries]).reshape(-1, 3)
+    g1 = np.array([c[2] for c in carries]).reshape(-1, 3)
+    equations = 3 * len(turns) + 3 * len(carries)
+    if equations < 9:
+        raise CalibrationError(f"gyro: {len(turns)} turns and {len(carries)} motions between poses give {equations} "
+                               "equations for H's 9 entries")
+    if H0 is None:
+        H0 = _start(turns, ms, g0, g1)
+    scale = float(np.abs(np.diag(H0)).mean()) or 1.0
+
+    def residuals(x):
+        H = x.reshape(3, 3) * scale
+        out = []
+        for m, axis, angle, angle_sd, axis_sd in turns:
+            w = H @ m
+            along = float(w @ axis) - angle
+            across = w - (w @ axis) * axis
+            out += [along / angle_sd, *(across / (abs(angle) * axis_sd))]
+        if ms is not None:
+            q = integrated_quats(H, ms)
+            out += list(((_rotate_inverse(q, g0) - g1) / CARRY_SD).ravel())
+        return np.asarray(out)
+
+    res = least_squares(residuals, (H0 / scale).ravel(), method="lm", xtol=1e-13, ftol=1e-13, gtol=1e-13,
+                        max_nfev=400)
+    H = res.x.reshape(3, 3) * scale
+    J = res.jac
+    dof = max(J.shape[0] - 9, 1)
+    cov = np.linalg.pinv(J.T @ J) * max(float(res.fun @ res.fun) / dof, 1.0) * scale * scale
+    return H, cov, {"converged": bool(res.status > 0), "iterations": int(res.nfev), "rank": int(np.linalg.matrix_rank(J))}
+
+
+def turn_angle(H: np.ndarray, m: np.ndarray, axis: np.ndarray) -> float:
+    """The angle (rad) a turn's summed raw rate makes about its nominal axis under H."""
+    return float((H @ m) @ axis)
+
+
+def carried_error(H: np.ndarray, B: np.ndarray, stream: MoveStream, g0: np.ndarray, g1: np.ndarray) -> float:
+    """Angle (rad) between the gravity direction carried across a motion by H and the one measured after it."""
+    q = integrated_quats(H, MoveSet.build([stream], B))
+    v = _rotate_inverse(q, g0[None])[0]
+    return float(np.arccos(np.clip(v @ g1 / np.linalg.norm(v), -1.0, 1.0)))
+
+
+def _start(turns, ms, g0, g1) -> np.ndarray:
+    """imucal's closed form when three turns span the axes; else the best scalar multiple of I."""
+    if len(turns) >= 3:
+        M = np.array([m for m, *_ in turns])
+        target = np.array([angle * axis for _, axis, angle, *_ in turns])
+        X, *_ = np.linalg.lstsq(M, target, rcond=None)
+        H = X.T
+        if np.linalg.det(H) > 0:
+            return H
+    candidates = np.exp(np.linspace(np.log(1e-6), np.log(10.0), 400))
+    best, cost_best = 1.0, np.inf
+    for s in candidates:
+        H = s * np.eye(3)
+        c = 0.0
+        for m, axis, angle, angle_sd, _ in turns:
+            c += ((H @ m) @ axis - angle) ** 2
+        if ms is not None:
+            q = integrated_quats(H, ms)
+            c += float(np.sum((_rotate_inverse(q, g0) - g1) ** 2)) * 100.0
+        if c < cost_best:
+            best, cost_best = s, c
+    return best * np.eye(3)
+
+
+def _rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R(q)^T v for quaternions q (..., n, 4) and vectors v (n, 3)."""
+    w, u = q[..., :1], -q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
