@@ -116,7 +116,6 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
     axis sd rad)] and motions carrying gravity [(raw stream, g_start unit, g_end unit)]."""
     if not turns and not carries:
         raise CalibrationError("gyro: no turn of known angle and no motion between static poses to calibrate H from")
-    M = np.array([m for m, *_ in turns]).reshape(-1, 3)
     ms = MoveSet.build([c[0] for c in carries], B) if carries else None
     g0 = np.array([c[1] for c in carries]).reshape(-1, 3)
     g1 = np.array([c[2] for c in carries]).reshape(-1, 3)
