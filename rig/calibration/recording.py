@@ -13,9 +13,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rig.calibration.recording_fits import (AXIS_VECTORS, carried_error, fit_faces, gyro_rotation_fit, turn_angle)
+from rig.calibration.recording_fits import (AXIS_VECTORS, carried_errors, fit_faces, gyro_rotation_fit,
+                                            turn_angle)
 from rig.calibration.result import TriadCalibration
-from rig.calibration.turntable_free import calibrate_turntable_free
+from rig.calibration.turntable_free import SAMPLES_PER_INTERVAL, calibrate_turntable_free, fit_accel_upper
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream, SessionData
 
@@ -96,7 +97,7 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None) 
     return RecordingCalibration(sensors, poses, turns, carries, warnings)
 
 
-def _pose_stats(session: SessionData, sensor: str, poses: list[Pose]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pose_stats(session: SessionData, sensor: str, poses: list[Pose]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     y = session.raw[sensor]
     means, se, counts = [], [], []
     for p in poses:
@@ -111,15 +112,15 @@ def _pose_stats(session: SessionData, sensor: str, poses: list[Pose]) -> tuple[n
 
 
 def _vector_fit(session: SessionData, sensor: str, poses: list[Pose], norm: float) -> TriadCalibration:
-    means, se, counts = _pose_stats(session, sensor, poses)
+    means, se, counts = pose_stats(session, sensor, poses)
     ups = [p.up if sensor == "accel" else None for p in poses]
-    if sensor == "mag" or sum(u is not None for u in ups) < 3:
-        raise CalibrationError(f"{sensor}: fewer than three poses say which axis was up")
-    tilt_sd = np.radians([p.tilt_sd_deg for p in poses])
-    B, H, u, info = fit_faces(means, se, ups, tilt_sd, norm)
     rows = np.concatenate([p.rows for p in poses])
     y = session.raw[sensor][rows]
     y = y[~np.isnan(y).any(axis=1)]
+    if sum(u is not None for u in ups) < 3:
+        return _norm_only_fit(session, sensor, poses, norm, y)
+    tilt_sd = np.radians([p.tilt_sd_deg for p in poses])
+    B, H, u, info = fit_faces(means, se, ups, tilt_sd, norm)
     rms = float(np.sqrt(np.mean((np.linalg.norm((y - B) @ H.T, axis=1) - norm) ** 2)))
     pose_err = np.linalg.norm((means - B) @ H.T, axis=1) - norm
     cov = info["cov"]
@@ -131,6 +132,22 @@ def _vector_fit(session: SessionData, sensor: str, poses: list[Pose], norm: floa
         extra={"poses": [p.name for p in poses], "pose_tilt_deg": info["tilt_deg"],
                "pose_norm_error": pose_err.tolist(), "gravity_direction": u.tolist(),
                "samples": int(counts.sum())})
+
+
+def _norm_only_fit(session: SessionData, sensor: str, poses: list[Pose], norm: float, y: np.ndarray) -> TriadCalibration:
+    """No pose says which axis was up: |H (y - B)| = norm over every pose sample, H upper triangular (imu_tk's
+    convention: without known orientations the sensor frame is the one H defines)."""
+    if len(poses) < 9:
+        raise CalibrationError(f"{sensor}: {len(poses)} static poses and none says which axis was up; the norm model "
+                               "needs at least 9")
+    chunks = [session.raw[sensor][p.rows][~np.isnan(session.raw[sensor][p.rows]).any(axis=1)] for p in poses]
+    B, H, cost = fit_accel_upper([c[:SAMPLES_PER_INTERVAL] for c in chunks], norm)      # imu_tk fits 100 a pose
+    rms = float(np.sqrt(np.mean((np.linalg.norm((y - B) @ H.T, axis=1) - norm) ** 2)))
+    means = np.array([c.mean(axis=0) for c in chunks])
+    return TriadCalibration(B=B, H=H, method="recording-norm (upper-triangular H, imu_tk convention)",
+                            residual_rms=rms, extra={"poses": [p.name for p in poses],
+                                                     "pose_norm_error": (np.linalg.norm((means - B) @ H.T, axis=1)
+                                                                         - norm).tolist(), "cost": cost})
 
 
 def _carries(session: SessionData, poses: list[Pose]) -> list[tuple[int, int]]:
@@ -159,15 +176,15 @@ def _gyro_fit(session: SessionData, accel: TriadCalibration, poses: list[Pose], 
     turn_terms = [(summed_rate(session, t.rows, B), t.axis, t.angle_rad, t.angle_sd_rad, t.axis_sd_rad)
                   for k, t in enumerate(turns) if k not in skip_turns]
     g = gravity_directions(session, accel, poses)
-    carry_terms = [(motion(session, poses[i], poses[j]), g[i], g[j]) for c, (i, j) in enumerate(carries)
-                   if c not in skip_carries]
+    streams = [motion(session, poses[i], poses[j]) for i, j in carries]
+    carry_terms = [(streams[c], g[i], g[j]) for c, (i, j) in enumerate(carries) if c not in skip_carries]
     H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms)
     if info["rank"] < 9:
         raise CalibrationError(f"gyro: the turns and motions left in the fit determine only {info['rank']} of H's 9 "
                                "entries")
     angle_err = [np.degrees(turn_angle(H, summed_rate(session, t.rows, B), t.axis) - t.angle_rad) for t in turns]
-    carry_err = [np.degrees(carried_error(H, B, motion(session, poses[i], poses[j]), g[i], g[j]))
-                 for i, j in carries]
+    carry_err = np.degrees(carried_errors(H, B, streams, g[[i for i, _ in carries]], g[[j for _, j in carries]])
+                           ).tolist() if carries else []
     resid = np.radians(np.r_[angle_err, carry_err])
     cal = TriadCalibration(
         B=B, H=H, method="recording-turns (known turns and gravity carried between poses)",

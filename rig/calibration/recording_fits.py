@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from rig.calibration.gyro import MoveSet, integrated_quats
+from rig.calibration.gyro import MoveSet, decimated, integrated_quats
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream
 
@@ -28,24 +28,28 @@ AXIS_VECTORS = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1
                 "-z": (0, 0, -1)}
 MEAN_SE_FLOOR = 1e-4          # relative to the norm: the least a pose mean is trusted to (model error)
 CARRY_SD = 0.005              # unit-vector components: gravity carried across a motion by hand (0.3 deg)
+START_STRIDE = 8              # the start's coarse scale search integrates every 8th sample
 
 
 def tangent_basis(u: np.ndarray) -> np.ndarray:
-    """Two unit vectors perpendicular to u (2, 3)."""
-    a = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    """Two unit vectors perpendicular to each u (..., 3) -> (..., 2, 3)."""
+    u = np.asarray(u, dtype=float)
+    a = np.where((np.abs(u[..., :1]) < 0.9), [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
     e1 = np.cross(u, a)
-    e1 /= np.linalg.norm(e1)
-    return np.array([e1, np.cross(u, e1)])
+    e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
+    return np.stack([e1, np.cross(u, e1)], axis=-2)
 
 
-def tilted(u: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """u turned by the small rotation of tangent components d (2,) (exact: a rotation of |d| rad)."""
-    v = tangent_basis(u).T @ d
-    angle = np.linalg.norm(v)
-    if angle == 0:
-        return u
-    axis = np.cross(u, v / angle)
-    return u * np.cos(angle) + np.cross(axis, u) * np.sin(angle)
+def tilted(u: np.ndarray, d: np.ndarray, basis: np.ndarray | None = None) -> np.ndarray:
+    """Each u (k, 3) turned by the small rotation of its tangent components d (k, 2): exactly |d| rad towards
+    the tangent direction (Rodrigues)."""
+    u = np.atleast_2d(np.asarray(u, dtype=float))
+    d = np.atleast_2d(np.asarray(d, dtype=float))
+    basis = tangent_basis(u) if basis is None else basis
+    v = np.einsum("ki,kij->kj", d, basis)
+    angle = np.linalg.norm(v, axis=-1, keepdims=True)
+    direction = np.divide(v, angle, out=np.zeros_like(v), where=angle > 0)
+    return u * np.cos(angle) + direction * np.sin(angle)
 
 
 def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_rad: np.ndarray,
@@ -78,10 +82,12 @@ def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_
     def unpack(p):
         return p[:3], p[3:12].reshape(3, 3) * scale, p[12:].reshape(n_known, 2)
 
+    basis = tangent_basis(nominal)
+
     def residuals(p):
         B, H, d = unpack(p)
         a = (means - B) @ H.T
-        u = np.array([tilted(e, dk) for e, dk in zip(nominal, d)])
+        u = tilted(nominal, d, basis)
         s = sigma_phys(H)
         r_face = ((a[known] - norm * u) / s[known]).ravel()
         r_norm = (np.linalg.norm(a[unknown], axis=1) - norm) / np.linalg.norm(s[unknown], axis=1) if unknown else []
@@ -96,7 +102,7 @@ def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_
     B, H, d = unpack(res.x)
     u = np.zeros_like(means)
     a = (means - B) @ H.T
-    u[known] = [tilted(e, dk) for e, dk in zip(nominal, d)]
+    u[known] = tilted(nominal, d, basis)
     for i in unknown:
         u[i] = a[i] / np.linalg.norm(a[i])
     J = res.jac
@@ -124,23 +130,38 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
         raise CalibrationError(f"gyro: {len(turns)} turns and {len(carries)} motions between poses give {equations} "
                                "equations for H's 9 entries")
     if H0 is None:
-        H0 = _start(turns, ms, g0, g1)
+        coarse = MoveSet.build(decimated([c[0] for c in carries], START_STRIDE), B) if carries else None
+        H0 = _start(turns, coarse, g0, g1)
     scale = float(np.abs(np.diag(H0)).mean()) or 1.0
 
-    def residuals(x):
-        H = x.reshape(3, 3) * scale
-        out = []
-        for m, axis, angle, angle_sd, axis_sd in turns:
-            w = H @ m
-            along = float(w @ axis) - angle
-            across = w - (w @ axis) * axis
-            out += [along / angle_sd, *(across / (abs(angle) * axis_sd))]
-        if ms is not None:
-            q = integrated_quats(H, ms)
-            out += list(((_rotate_inverse(q, g0) - g1) / CARRY_SD).ravel())
-        return np.asarray(out)
+    M = np.array([m for m, *_ in turns]).reshape(-1, 3)
+    axes = np.array([a for _, a, *_ in turns]).reshape(-1, 3)
+    angles = np.array([t[2] for t in turns])
+    along_sd = np.array([t[3] for t in turns])
+    across_sd = np.array([abs(t[2]) * t[4] for t in turns])
 
-    res = least_squares(residuals, (H0 / scale).ravel(), method="lm", xtol=1e-13, ftol=1e-13, gtol=1e-13,
+    def stacked(X: np.ndarray) -> np.ndarray:
+        """Residuals of a stack of H (n, 3, 3) -> (n, m): turns first, then the carried gravity."""
+        parts = []
+        if len(M):
+            w = np.einsum("nij,kj->nki", X, M)                                   # (n, turns, 3)
+            along = np.einsum("nki,ki->nk", w, axes)
+            across = w - along[..., None] * axes
+            parts += [((along - angles) / along_sd), (across / across_sd[:, None]).reshape(len(X), -1)]
+        if ms is not None:
+            q = integrated_quats(X, ms)
+            parts.append(((_rotate_inverse(q, g0) - g1) / CARRY_SD).reshape(len(X), -1))
+        return np.concatenate(parts, axis=1)
+
+    def fun(x):
+        return stacked(x.reshape(1, 3, 3) * scale)[0]
+
+    def jac(x, step: float = 1e-7):
+        X = np.vstack([x, x + step * np.eye(9)]).reshape(-1, 3, 3) * scale          # one call for all ten
+        r = stacked(X)
+        return ((r[1:] - r[0]) / step).T
+
+    res = least_squares(fun, (H0 / scale).ravel(), jac=jac, method="lm", xtol=1e-13, ftol=1e-13, gtol=1e-13,
                         max_nfev=400)
     H = res.x.reshape(3, 3) * scale
     J = res.jac
@@ -154,11 +175,14 @@ def turn_angle(H: np.ndarray, m: np.ndarray, axis: np.ndarray) -> float:
     return float((H @ m) @ axis)
 
 
-def carried_error(H: np.ndarray, B: np.ndarray, stream: MoveStream, g0: np.ndarray, g1: np.ndarray) -> float:
-    """Angle (rad) between the gravity direction carried across a motion by H and the one measured after it."""
-    q = integrated_quats(H, MoveSet.build([stream], B))
-    v = _rotate_inverse(q, g0[None])[0]
-    return float(np.arccos(np.clip(v @ g1 / np.linalg.norm(v), -1.0, 1.0)))
+def carried_errors(H: np.ndarray, B: np.ndarray, streams: list[MoveStream], g0: np.ndarray, g1: np.ndarray) -> np.ndarray:
+    """Angles (rad) between the gravity directions carried across motions by H and those measured after them."""
+    if not streams:
+        return np.zeros(0)
+    q = integrated_quats(H, MoveSet.build(streams, B))
+    v = _rotate_inverse(q, np.asarray(g0))
+    cos = np.einsum("ij,ij->i", v, np.asarray(g1)) / np.linalg.norm(v, axis=1)
+    return np.arccos(np.clip(cos, -1.0, 1.0))
 
 
 def _start(turns, ms, g0, g1) -> np.ndarray:
@@ -170,19 +194,15 @@ def _start(turns, ms, g0, g1) -> np.ndarray:
         H = X.T
         if np.linalg.det(H) > 0:
             return H
-    candidates = np.exp(np.linspace(np.log(1e-6), np.log(10.0), 400))
-    best, cost_best = 1.0, np.inf
-    for s in candidates:
-        H = s * np.eye(3)
-        c = 0.0
-        for m, axis, angle, angle_sd, _ in turns:
-            c += ((H @ m) @ axis - angle) ** 2
-        if ms is not None:
-            q = integrated_quats(H, ms)
-            c += float(np.sum((_rotate_inverse(q, g0) - g1) ** 2)) * 100.0
-        if c < cost_best:
-            best, cost_best = s, c
-    return best * np.eye(3)
+    scales = np.exp(np.linspace(np.log(1e-6), np.log(10.0), 160))
+    cost = np.zeros_like(scales)
+    for m, axis, angle, angle_sd, _ in turns:
+        cost += (scales * (m @ axis) - angle) ** 2
+    if ms is not None:
+        for chunk in np.array_split(np.arange(len(scales)), 8):         # all candidates at once, in chunks
+            q = integrated_quats(scales[chunk, None, None] * np.eye(3), ms)
+            cost[chunk] += np.sum((_rotate_inverse(q, g0) - g1) ** 2, axis=(-1, -2)) * 100.0
+    return float(scales[int(np.argmin(cost))]) * np.eye(3)
 
 
 def _rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:

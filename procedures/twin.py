@@ -1,0 +1,198 @@
+"""The simulation's twin of a real recording: the same poses and motions, the parameters fitted to it, the noise
+model the simulator uses, run many times through the same calibration and statistics (issue 13, item 3).
+
+Reconstruction: each static pose keeps the gravity direction the calibrated accelerometer measured there; between
+poses the fixture turns as the calibrated gyro says (its rate lightly smoothed, so the replicas' own noise is not
+added twice); the heading, which nothing measures, is carried along by the gyro. Each replica is the world
+(`fixtures.world`) sensing that motion with `y = inv(H) u + B` of the recording's own calibration, white noise of
+the recording's own size in every pose, and counts rounded where the recording is in counts. Effects of the
+vocabulary can be added to the replicas (`effects`), which is how the extension is measured.
+"""
+
+from __future__ import annotations
+
+import copy
+import multiprocessing as mp
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from fixtures.world.model import Environment, SensorModel, World
+from fixtures.world.recorded import RecordedAttitude
+from rig.calibration.recording import RecordingCalibration, calibrate_recording
+from rig.errors import CalibrationError
+from rig.io.recording import recording_session
+from rig.noise.statistics import recording_statistics
+from rig.rotations import matrix_from_rotvec
+from rig.session_data import SessionData
+
+SMOOTH_SAMPLES = 5
+
+
+@dataclass
+class Replay:
+    """What every replica of one recording shares."""
+
+    t: np.ndarray
+    attitude: RecordedAttitude
+    sensors: dict[str, SensorModel]       # raw units: y = inv(H) u + B + noise
+    units: dict[str, str]
+    missing: dict[str, np.ndarray]        # rows where the recording had no sample of the sensor
+    env: Environment
+    segments: list[dict]
+    rate_hz: float
+    source: str
+
+
+def twin_view(session: SessionData, rec: RecordingCalibration) -> SessionData:
+    """The recording with its static poses as segments: those it named, or those its calibration found."""
+    if session.meta.get("segments"):
+        return session
+    view = copy.copy(session)
+    view.meta = dict(session.meta, segments=pose_segments(session, rec))
+    return view
+
+
+def pose_segments(session: SessionData, rec: RecordingCalibration) -> list[dict]:
+    return [{"name": p.name, "t0": float(session.t[p.rows[0]]), "t1": float(session.t[p.rows[-1]]), "kind": "static"}
+            for p in rec.poses]
+
+
+def reconstruct(session: SessionData, rec: RecordingCalibration) -> Replay:
+    """The motion, sensors and environment of the recording as the twin replays them."""
+    t = session.t
+    n = len(t)
+    if "gyro" not in rec.sensors or "accel" not in rec.sensors:
+        raise CalibrationError("twin: the recording needs an accelerometer and a gyroscope")
+    pose_of = np.full(n, -1)
+    for k, p in enumerate(rec.poses):
+        pose_of[p.rows] = k
+    up = [_unit(rec.sensors["accel"].apply(_clean(session.raw["accel"][p.rows]).mean(axis=0, keepdims=True))[0])
+          for p in rec.poses]
+    omega = _rate(session, rec)
+    omega[pose_of >= 0] = 0.0
+    R = np.empty((n, 3, 3))
+    current = _align(np.eye(3), up[pose_of[0]] if pose_of[0] >= 0 else _unit(np.array([0.0, 0.0, 1.0])))
+    for i in range(n):
+        k = pose_of[i]
+        if k >= 0 and (i == 0 or pose_of[i - 1] != k):
+            current = _align(current, up[k])
+        elif i > 0 and k < 0:
+            current = current @ matrix_from_rotvec(0.5 * (omega[i - 1] + omega[i]) * (t[i] - t[i - 1]))
+        R[i] = current
+    sensors = {name: SensorModel(name, cal.H, cal.B, _white_noise(session, name, rec))
+               for name, cal in rec.sensors.items() if name in session.raw}
+    env = Environment(gravity=session.gravity, field_uT=session.field_uT or 50.0)
+    if "mag" in sensors:
+        m_world = np.mean([R[p.rows[0]] @ rec.sensors["mag"].apply(_clean(session.raw["mag"][p.rows]).mean(
+            axis=0, keepdims=True))[0] for p in rec.poses], axis=0)
+        env.field_uT = float(np.linalg.norm(m_world))
+        env.dip_deg = float(np.degrees(np.arcsin(-m_world[2] / env.field_uT)))
+        env.declination_deg = float(np.degrees(np.arctan2(m_world[0], m_world[1])))
+    if session.temp_c is not None and np.isfinite(session.temp_c).all():
+        env.temperature = lambda tt, tc=session.temp_c: np.interp(tt, t, tc)
+    return Replay(t, RecordedAttitude(t, R, omega), sensors,
+                  {s: session.meta.get("units", {}).get(s, "counts") for s in sensors},
+                  {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
+                  session.meta.get("segments") or pose_segments(session, rec),
+                  float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source)
+
+
+def replica(replay: Replay, seed: int, effects=(), quiet=()) -> SessionData:
+    """One simulated recording of the twin (noise trial `seed`); the `quiet` sensors' white noise is left to an
+    effect that replaces it."""
+    sensors = {n: (SensorModel(m.kind, m.H, m.B, np.zeros(3)) if n in quiet else m) for n, m in replay.sensors.items()}
+    world = World(None, sensors, env=replay.env, effects=list(effects), seed=seed, attitude=replay.attitude)
+    raw = {}
+    for name in replay.sensors:
+        y = world.sense(name, replay.t)
+        if replay.units[name] == "counts":
+            y = np.round(y)
+        y[replay.missing[name]] = np.nan
+        raw[name] = y
+    return recording_session(replay.t, raw, units=replay.units, gravity=replay.env.gravity,
+                             field_uT=replay.env.field_uT if "mag" in raw else None, segments=replay.segments,
+                             sample_rate_hz=replay.rate_hz, source=f"twin of {replay.source}, trial {seed}")
+
+
+def replica_statistics(replay: Replay, seeds, effects_for=lambda seed: (), quiet=(), workers: int | None = None
+                       ) -> tuple[list[dict], int]:
+    """Statistics of the replicas of `seeds` (each with the effects `effects_for(seed)`); and how many replicas
+    could not be calibrated (those are left out of the band, and counted). Replicas are independent, so they
+    run on every core (forked workers inherit the replay; nothing is pickled but seeds and statistics)."""
+    seeds = list(seeds)
+    workers = min(workers or os.cpu_count() or 1, len(seeds))
+    global _JOB
+    _JOB = (replay, effects_for, tuple(quiet))
+    if workers > 1 and "fork" in mp.get_all_start_methods():
+        with mp.get_context("fork").Pool(workers) as pool:
+            results = pool.map(_one_replica, seeds, chunksize=max(1, len(seeds) // (4 * workers)))
+    else:
+        results = [_one_replica(seed) for seed in seeds]
+    _JOB = None
+    out = [r for r in results if r is not None]
+    return out, len(results) - len(out)
+
+
+_JOB = None
+
+
+def _one_replica(seed: int) -> dict | None:
+    replay, effects_for, quiet = _JOB
+    rep = replica(replay, seed, effects_for(seed), quiet)
+    try:
+        return recording_statistics(rep, calibrate_recording(rep))
+    except CalibrationError:
+        return None
+
+
+def bands(replicas: list[dict], lo: float = 1.0, hi: float = 99.0, min_share: float = 0.8) -> dict[str, tuple]:
+    """Per statistic, the replicas' lo..hi percentile band and median (statistics most replicas have)."""
+    names = {k for r in replicas for k in r}
+    out = {}
+    for name in names:
+        values = np.array([r[name] for r in replicas if name in r and np.isfinite(r[name])])
+        if len(values) >= min_share * len(replicas):
+            out[name] = (float(np.percentile(values, lo)), float(np.percentile(values, hi)), float(np.median(values)))
+    return out
+
+
+def _white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) -> np.ndarray:
+    """Per-axis standard deviation pooled over the poses, in the raw units (what the simulator's white noise is)."""
+    var, dof = np.zeros(3), 0
+    for p in rec.poses:
+        v = _clean(session.raw[sensor][p.rows])
+        if len(v) > 1:
+            var += v.var(axis=0, ddof=1) * (len(v) - 1)
+            dof += len(v) - 1
+    return np.sqrt(var / max(dof, 1))
+
+
+def _rate(session: SessionData, rec: RecordingCalibration) -> np.ndarray:
+    """The calibrated gyro rate (rad/s), gaps filled, smoothed over a few samples."""
+    w = rec.sensors["gyro"].apply(session.raw["gyro"])
+    have = ~np.isnan(w).any(axis=1)
+    for k in range(3):
+        w[:, k] = np.interp(session.t, session.t[have], w[have, k])
+    kernel = np.ones(SMOOTH_SAMPLES) / SMOOTH_SAMPLES
+    return np.stack([np.convolve(w[:, k], kernel, mode="same") for k in range(3)], axis=1)
+
+
+def _align(R: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """R turned the least (in the fixture) so that world up, seen in the fixture, is u: R^T z = u."""
+    v = R.T @ np.array([0.0, 0.0, 1.0])
+    axis = np.cross(u, v)
+    s, c = np.linalg.norm(axis), float(np.clip(u @ v, -1.0, 1.0))
+    if s < 1e-12:
+        return R if c > 0 else R @ matrix_from_rotvec(np.pi * _unit(np.cross(v, [1.0, 0.0, 0.0])
+                                                                    if abs(v[0]) < 0.9 else np.cross(v, [0, 1.0, 0])))
+    return R @ matrix_from_rotvec(axis / s * np.arctan2(s, c))
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+def _clean(v: np.ndarray) -> np.ndarray:
+    return v[~np.isnan(v).any(axis=1)]

@@ -1,0 +1,196 @@
+"""Name what the twin gets wrong, extend it, measure the gain (issue 13, item 4).
+
+A statistic of the real recording outside its replicas' 1-99 % band is something the simulation gets wrong. Each
+noise and recording effect of the vocabulary (effects.md, "Noise and recording effects") is fitted from the real
+recording alone, by its own estimator, and proposed when a statistic it governs is out of band. The replicas are
+run again with all proposed effects, and with each alone: a statistic that comes back inside is named by the
+effects that bring it back alone (or all of them, when only together); one that stays outside is `unexplained`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from fixtures.world.noise_effects import (BiasInstability, HoldNotStill, Quantisation, RateRandomWalk, Saturation,
+                                          ShapedNoise)
+from procedures.twin import Replay
+from rig.calibration.recording import RecordingCalibration
+from rig.noise.allan import allan_deviation, fit_noise
+from rig.noise.statistics import value_step
+from rig.session_data import SessionData
+
+SHAKE_TAU_S = 0.05        # a hand's tremor (8-12 Hz) and a soft mount's ringing, as a correlation time
+REPORT = {"accel": ("m/s^2", 1.0), "gyro": ("deg/s", math.pi / 180), "mag": ("uT", 1.0)}
+
+
+@dataclass
+class Cause:
+    effect: str
+    sensor: str
+    magnitude: float
+    unit: str
+    params: dict
+    governs: tuple[str, ...]                       # statistic families it can move
+    make: Callable[[int], list]                    # the world's effects for a replica's seed
+    quiet: tuple[str, ...] = ()                    # sensors whose white noise it replaces
+    brings_back: list[str] = field(default_factory=list)
+
+
+def outside(real: dict, bands: dict) -> set[str]:
+    out = set()
+    for name, value in real.items():
+        if name in bands:
+            lo, hi, _ = bands[name]
+            tol = 1e-9 * max(abs(lo), abs(hi), 1e-300)
+            if value < lo - tol or value > hi + tol:
+                out.add(name)
+    return out
+
+
+def family(name: str) -> str:
+    """'gyro.adev.x@0.01s' -> 'gyro.adev'; 'accel.spread.y[x_p]' -> 'accel.spread'."""
+    return ".".join(name.split("[")[0].split("@")[0].split(".")[:2])
+
+
+def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, real: dict, bands: dict,
+            off: set[str]) -> list[Cause]:
+    """The effects the real recording shows, each fitted from it, where a statistic it governs is out of band."""
+    causes, floors = [], {}
+    longest = max(rec.poses, key=lambda p: len(p.rows))
+    fams = {family(n) for n in off}
+    for sensor, model in replay.sensors.items():
+        y = session.raw[sensor]
+        scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT[sensor][1]       # reported unit per raw unit
+        unit = REPORT[sensor][0]
+        still = _clean(y[longest.rows])
+        if f"{sensor}.step" in fams and replay.units[sensor] != "counts":
+            q = np.array([value_step(_clean(y)[:, k]) for k in range(3)])
+            causes.append(Cause("quantisation", sensor, float((q * scale).max()), unit, {"q": (q * scale).tolist()},
+                                (f"{sensor}.step", f"{sensor}.adev", f"{sensor}.psd", f"{sensor}.spread"),
+                                lambda seed, s=sensor, q=q: [Quantisation(s, q=q)]))
+        if {f"{sensor}.adev", f"{sensor}.psd"} & fams:
+            std = quiet_noise(session, rec, sensor)
+            floors[sensor] = std
+            taps = np.array([spectral_taps(still[:, k], replay.rate_hz) for k in range(3)])
+            effect = ShapedNoise(sensor, taps=taps, std=std)
+            causes.append(Cause("white_noise_mismatch", sensor, effect.magnitude(), "dimensionless",
+                                {"std_raw": std.tolist(), "taps": int(taps.shape[1]),
+                                 "model": "the recording's own spectrum (longest pose), at its quieter poses' level"},
+                                (f"{sensor}.adev", f"{sensor}.psd", f"{sensor}.spread"),
+                                lambda seed, s=sensor, taps=taps, std=std: [ShapedNoise(s, taps=taps, std=std,
+                                                                                        seed=seed * 7 + 1)],
+                                quiet=(sensor,)))
+        mean_fam = f"{sensor}.hold_mean" if sensor == "gyro" else f"{sensor}.norm_residual"
+        scatter = [n for n in off if n.startswith(f"{sensor}.bias_scatter") or n.startswith(f"{sensor}.norm_scatter")]
+        if scatter or mean_fam in fams:
+            sigma = _excess_scatter(real, bands, sensor, rec)
+            if (sigma > 0).any():
+                centres = [float(np.mean(session.t[p.rows])) for p in rec.poses]
+                tau = float(max(np.median(np.diff(centres)) if len(centres) > 1 else 10.0, 1.0))
+                causes.append(Cause("bias_instability", sensor,
+                                    float((sigma * scale).max() * 0.618 / math.sqrt(2 * math.log(2) / math.pi)), unit,
+                                    {"sigma": (sigma * scale).tolist(), "tau_s": tau},
+                                    (mean_fam, f"{sensor}.bias_scatter", f"{sensor}.norm_scatter", f"{sensor}.adev"),
+                                    lambda seed, s=sensor, sg=sigma, tau=tau: [BiasInstability(s, sigma=sg, tau_s=tau,
+                                                                                               seed=seed * 7 + 2)]))
+        terms = fit_noise(allan_deviation(still[:, 0], replay.rate_hz))
+        long_off = [n for n in off if n.startswith(f"{sensor}.adev") and _tau(n) >= 0.1 * len(still) / replay.rate_hz]
+        if long_off and terms.K > 0:
+            K = np.array([fit_noise(allan_deviation(still[:, k], replay.rate_hz)).K for k in range(3)])
+            causes.append(Cause("rate_random_walk", sensor, float((K * scale).max()), unit + " per sqrt(s)",
+                                {"K": (K * scale).tolist()}, (f"{sensor}.adev", mean_fam, f"{sensor}.bias_scatter"),
+                                lambda seed, s=sensor, K=K: [RateRandomWalk(s, K=K, seed=seed * 7 + 3)]))
+        if f"{sensor}.pinned" in fams:
+            clean = _clean(y)
+            lo, hi = clean.min(axis=0), clean.max(axis=0)
+            share = float(100 * np.mean((clean == lo) | (clean == hi)))
+            causes.append(Cause("saturation", sensor, share, "percent", {"low": lo.tolist(), "high": hi.tolist()},
+                                (f"{sensor}.pinned",), lambda seed, s=sensor, lo=lo, hi=hi: [Saturation(s, low=lo, high=hi)]))
+    if {"gyro.spread", "accel.spread"} & fams and "gyro" in replay.sensors:
+        causes.append(_hold_not_still(session, rec, real, bands, replay, floors))
+    return causes
+
+
+def _excess_scatter(real: dict, bands: dict, sensor: str, rec: RecordingCalibration) -> np.ndarray:
+    """Per axis (raw units): the pose-to-pose scatter of the means beyond what the replicas show."""
+    H = rec.sensors[sensor].H
+    out = np.zeros(3)
+    for k, axis in enumerate("xyz"):
+        name = f"{sensor}.bias_scatter.{axis}" if sensor == "gyro" else f"{sensor}.norm_scatter"
+        if name in real and name in bands:
+            extra = real[name] ** 2 - bands[name][2] ** 2
+            out[k] = math.sqrt(max(extra, 0.0)) / abs(H[k, k])
+    return out
+
+
+def _hold_not_still(session: SessionData, rec: RecordingCalibration, real: dict, bands: dict, replay: Replay,
+                    floors: dict) -> Cause:
+    """Each pose's own wobble (gyro spread) and shake (accelerometer spread) beyond the noise floor: the quietest
+    poses' where the white noise is refitted (`floors`), else the replicas' white noise."""
+    rates, shakes, spans = [], [], []
+    for p in rec.poses:
+        rates.append(math.sqrt(_excess(real, bands, rec, "gyro", p.name, floors.get("gyro"))))
+        shakes.append(math.sqrt(_excess(real, bands, rec, "accel", p.name, floors.get("accel")))
+                      if "accel" in replay.sensors else 0.0)
+        spans.append((float(session.t[p.rows[0]]), float(session.t[p.rows[-1]])))
+    rates, shakes = np.array(rates), np.array(shakes)
+    rate_rms = float(np.sqrt(np.mean(rates ** 2)))
+    shake_rms = float(np.sqrt(np.mean(shakes ** 2)))
+    gyro_env = tuple((a, b, r / rate_rms if rate_rms else 0.0) for (a, b), r in zip(spans, rates))
+    accel_env = tuple((a, b, x / shake_rms if shake_rms else 0.0) for (a, b), x in zip(spans, shakes))
+    rms_dps = math.degrees(rate_rms)
+
+    def make(seed):
+        return [HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=gyro_env, seed=seed * 7 + 4),
+                HoldNotStill("accel", shake_rms=shake_rms, tau_s=SHAKE_TAU_S, envelope=accel_env, seed=seed * 7 + 5)]
+    return Cause("hold_not_still", "gyro", rms_dps, "deg/s",
+                 {"rms_dps": rms_dps, "shake_rms_mps2": shake_rms,
+                  "per_pose_dps": dict(zip([p.name for p in rec.poses], np.degrees(rates).tolist()))},
+                 ("gyro.spread", "accel.spread", "gyro.adev", "gyro.psd", "accel.adev", "accel.psd"), make)
+
+
+def _excess(real: dict, bands: dict, rec: RecordingCalibration, sensor: str, pose: str,
+            floor: np.ndarray | None) -> float:
+    """Variance (calibrated units squared, summed over axes) of a pose's samples beyond the noise floor (raw
+    units per axis) or, without one, beyond the replicas' median."""
+    if sensor not in rec.sensors:
+        return 0.0
+    H = rec.sensors[sensor].H
+    total = 0.0
+    for k, axis in enumerate("xyz"):
+        name = f"{sensor}.spread.{axis}[{pose}]"
+        if name in real and name in bands:
+            base = floor[k] if floor is not None else bands[name][2]
+            total += max(real[name] ** 2 - base ** 2, 0.0) * H[k, k] ** 2
+    return total
+
+
+def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
+    """Per axis, the spread of the quieter poses (their lower quartile): the sensor's own noise, which the poses
+    where a hand shook cannot lower."""
+    spreads = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
+    return np.percentile(spreads, 25, axis=0)
+
+
+def spectral_taps(x: np.ndarray, rate_hz: float, length: int = 64) -> np.ndarray:
+    """A linear-phase FIR whose power response is the stream's Welch spectrum (frequency sampling): white noise
+    through it has the stream's spectral shape."""
+    from scipy.signal import welch
+
+    f, p = welch(x - x.mean(), fs=rate_hz, nperseg=min(2 * length, len(x)))
+    amplitude = np.sqrt(np.maximum(p, 1e-30))
+    taps = np.fft.irfft(amplitude)
+    taps = np.roll(taps, len(taps) // 2) * np.hanning(len(taps))
+    return taps / np.linalg.norm(taps)
+
+
+def _tau(name: str) -> float:
+    return float(name.split("@")[1].rstrip("s")) if "@" in name else 0.0
+
+
+def _clean(v: np.ndarray) -> np.ndarray:
+    return v[~np.isnan(v).any(axis=1)]

@@ -1,0 +1,153 @@
+"""The statistics a recording is compared on with its simulated twin (issue 13, item 3), each a named number.
+
+Per sensor: the spread within each static pose, the pose means against the model (the accelerometer's |a| - g,
+the gyro's calibrated rate), their scatter from pose to pose, the Allan deviation and the spectrum of the longest
+pose, the step between the stream's distinct values, the share of samples pinned at an extreme; per turn or
+motion the gyro's angle residual; and how the calibration's own standard deviations compare with the scatter of
+leave-one-pose-out refits. The same function runs on the real recording and on every replica, through the same
+calibration, so a difference is the world's, not the pipeline's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rig.calibration.recording import RecordingCalibration, pose_stats
+from rig.calibration.recording_fits import fit_faces
+from rig.errors import CalibrationError
+from rig.noise.allan import allan_deviation
+from rig.session_data import SessionData
+
+AXES = "xyz"
+PSD_BANDS = 4
+LOO_POSES_MAX = 8
+
+
+def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dict[str, float]:
+    """Every statistic of `session` calibrated as `rec`, by name."""
+    out: dict[str, float] = {}
+    rate = _rate(session)
+    longest = max(rec.poses, key=lambda p: len(p.rows))
+    for sensor in ("accel", "gyro", "mag"):
+        if sensor not in session.raw or sensor not in rec.sensors:
+            continue
+        y = session.raw[sensor]
+        cal = rec.sensors[sensor]
+        for p in rec.poses:
+            v = _clean(y[p.rows])
+            for k in range(3):
+                out[f"{sensor}.spread.{AXES[k]}[{p.name}]"] = float(v[:, k].std(ddof=1))
+        means = np.array([_clean(y[p.rows]).mean(axis=0) for p in rec.poses])
+        calibrated = cal.apply(means)
+        if sensor == "gyro":
+            for p, m in zip(rec.poses, calibrated):
+                for k in range(3):
+                    out[f"gyro.hold_mean.{AXES[k]}[{p.name}]"] = float(m[k])
+            for k in range(3):
+                out[f"gyro.bias_scatter.{AXES[k]}"] = float(calibrated[:, k].std(ddof=1))
+        else:
+            norm = session.gravity if sensor == "accel" else float(session.field_uT)
+            residual = np.linalg.norm(calibrated, axis=1) - norm
+            free = [i for i, p in enumerate(rec.poses) if not (sensor == "accel" and p.up)]
+            for i in free:        # a face whose tilt is fitted meets |a| = g by construction: nothing to compare
+                out[f"{sensor}.norm_residual[{rec.poses[i].name}]"] = float(residual[i])
+            if len(free) > 2:
+                out[f"{sensor}.norm_scatter"] = float(residual[free].std(ddof=1))
+        stretch = _clean(y[longest.rows])
+        for k in range(3):
+            x = stretch[:, k]
+            curve = allan_deviation(x, rate)
+            for tau, adev in zip(curve.tau, curve.adev):
+                out[f"{sensor}.adev.{AXES[k]}@{tau:.4g}s"] = float(adev)
+            for (lo, hi), power in band_powers(x, rate).items():
+                out[f"{sensor}.psd.{AXES[k]}[{lo:.3g}-{hi:.3g} Hz]"] = power
+            out[f"{sensor}.step.{AXES[k]}"] = value_step(_clean(y)[:, k])
+            out[f"{sensor}.pinned.{AXES[k]}"] = pinned_fraction(_clean(y)[:, k])
+    gyro = rec.sensors.get("gyro")
+    if gyro is not None:
+        for turn, err in zip(rec.turns, gyro.extra.get("turn_angle_error_deg", [])):
+            out[f"gyro.turn_error[{turn.name}]"] = float(err)
+        for (i, j), err in zip(rec.carries, gyro.extra.get("carry_error_deg", [])):
+            out[f"gyro.carry_error[{rec.poses[i].name}->{rec.poses[j].name}]"] = float(err)
+    ratio = loo_scatter_ratio(session, rec)
+    if ratio is not None:
+        out["accel.loo_scatter_to_predicted"] = ratio
+    return out
+
+
+def band_powers(x: np.ndarray, rate: float) -> dict[tuple[float, float], float]:
+    """Mean Welch power spectral density in PSD_BANDS log-spaced bands from the lowest resolved frequency to
+    Nyquist (unit^2 per Hz)."""
+    from scipy.signal import welch
+
+    nper = int(min(256, len(x)))
+    f, p = welch(x - x.mean(), fs=rate, nperseg=nper)
+    f, p = f[1:], p[1:]
+    edges = np.geomspace(f[0], f[-1] * (1 + 1e-9), PSD_BANDS + 1)
+    out = {}
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = (f >= lo) & (f < hi)
+        if sel.any():
+            out[(float(lo), float(hi))] = float(p[sel].mean())
+    return out
+
+
+def value_step(x: np.ndarray) -> float:
+    """The step between a stream's distinct values (its quantum when it has one): the median of the smallest
+    gaps, robust to a few values off the grid."""
+    u = np.unique(x[np.isfinite(x)])
+    if len(u) < 3:
+        return 0.0
+    gaps = np.diff(u)
+    return float(np.median(np.sort(gaps)[: max(len(gaps) // 4, 1)]))
+
+
+def pinned_fraction(x: np.ndarray) -> float:
+    """Share of samples sitting exactly at the stream's smallest or largest value (a clipped output piles up
+    there; an unclipped one has a handful at most)."""
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return 0.0
+    at = np.count_nonzero(x == x.max()) + np.count_nonzero(x == x.min())
+    return float(at / x.size) if at > 2 else 0.0
+
+
+def loo_scatter_ratio(session: SessionData, rec: RecordingCalibration) -> float | None:
+    """Jackknife scatter of the accelerometer's B and H over leave-one-pose-out refits, over the standard deviations
+    the full fit states (median over the 12 entries): about 1 when the fit's uncertainty is honest."""
+    accel = rec.sensors.get("accel")
+    if accel is None or accel.H_std is None or not any(p.up for p in rec.poses):
+        return None
+    means, se, _ = pose_stats(session, "accel", rec.poses)
+    ups = [p.up for p in rec.poses]
+    tilt = np.radians([p.tilt_sd_deg for p in rec.poses])
+    n = len(rec.poses)
+    drop = range(n) if n <= LOO_POSES_MAX else np.linspace(0, n - 1, LOO_POSES_MAX).astype(int)
+    fits = []
+    for i in drop:
+        keep = [j for j in range(n) if j != i]
+        try:
+            B, H, _, _ = fit_faces(means[keep], se[keep], [ups[j] for j in keep], tilt[keep], session.gravity)
+        except CalibrationError:
+            continue
+        fits.append(np.r_[B, H.ravel()])
+    if len(fits) < 3:
+        return None
+    fits = np.array(fits)
+    m = len(fits)
+    jack = np.sqrt((m - 1) / m * ((fits - fits.mean(axis=0)) ** 2).sum(axis=0))
+    stated = np.r_[accel.B_std, np.asarray(accel.H_std).ravel()]
+    ok = stated > 0
+    return float(np.median(jack[ok] / stated[ok])) if ok.any() else None
+
+
+def _clean(v: np.ndarray) -> np.ndarray:
+    return v[~np.isnan(v).any(axis=1)]
+
+
+def _rate(session: SessionData) -> float:
+    if session.sample_rate_hz:
+        return float(session.sample_rate_hz)
+    return float(1.0 / np.median(np.diff(session.t)))
+
+
