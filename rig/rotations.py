@@ -2,6 +2,11 @@
 
 Quaternions are scalar-first `(w, x, y, z)`, Hamilton product, fixture -> world, stored with `w >= 0`.
 Matrices `R` map fixture vectors to world vectors. Functions accept a single item or a stack.
+
+The conversions are scipy's `Rotation` formulas written in numpy (Markley's matrix -> quaternion, the
+series near zero angle, an SVD for a matrix that is not orthogonal): scipy.spatial costs ~0.2 s to import,
+more than a whole `rig calibrate --from` may take (issue 17, start-up). tests/startup/test_rotations.py
+holds them equal to scipy's `Rotation` to round-off.
 """
 
 from __future__ import annotations
@@ -9,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 
 def rot_x(angle_rad: float | np.ndarray) -> np.ndarray:
@@ -39,17 +43,27 @@ def axis_angle_matrix(axis: np.ndarray, angle_rad: float | np.ndarray) -> np.nda
     axis = np.asarray(axis, dtype=float)
     axis = axis / np.linalg.norm(axis)
     a = np.asarray(angle_rad, dtype=float)
-    return Rotation.from_rotvec(np.multiply.outer(a, axis)).as_matrix()
+    return matrix_from_rotvec(np.multiply.outer(a, axis))
 
 
 def quat_from_matrix(R: np.ndarray) -> np.ndarray:
-    """Scalar-first unit quaternion(s) with w >= 0."""
-    q = Rotation.from_matrix(R).as_quat(scalar_first=True)
+    """Scalar-first unit quaternion(s) with w >= 0; a matrix that is not orthogonal is first replaced by the
+    nearest rotation (U V^T of its SVD), one with det <= 0 refused (ValueError), as scipy's from_matrix."""
+    q = _xyzw_from_matrix(R)
+    q = np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
     return np.where(q[..., :1] < 0, -q, q)
 
 
 def matrix_from_quat(q: np.ndarray) -> np.ndarray:
-    return Rotation.from_quat(np.asarray(q, dtype=float), scalar_first=True).as_matrix()
+    """Rotation matrix of scalar-first quaternion(s), normalised first."""
+    q = _normalised(np.asarray(q, dtype=float))
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+    rows = [x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw),
+            2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw),
+            2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2]
+    return np.stack(rows, axis=-1).reshape(q.shape[:-1] + (3, 3))
 
 
 def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -65,12 +79,90 @@ def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     ], -1)
 
 
+def quat_conjugate(q: np.ndarray) -> np.ndarray:
+    """The inverse rotation of scalar-first unit quaternion(s)."""
+    return np.asarray(q, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def rotvec_from_quat(q: np.ndarray) -> np.ndarray:
+    """Rotation vector(s), angle in [0, pi], of scalar-first quaternion(s), normalised first."""
+    q = _normalised(np.asarray(q, dtype=float))
+    w, v = q[..., :1], q[..., 1:]
+    first = np.take_along_axis(v, np.argmax(v != 0, axis=-1)[..., None], axis=-1)
+    flip = (w < 0) | ((w == 0) & (first < 0))
+    w, v = np.where(flip, -w, w), np.where(flip, -v, v)
+    angle = 2.0 * np.arctan2(np.linalg.norm(v, axis=-1, keepdims=True), w)
+    small = angle <= 1e-3
+    a2 = angle * angle
+    scale = np.where(small, 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0, angle / (np.sin(angle / 2.0) + small))
+    return scale * v
+
+
 def rotvec_from_matrix(R: np.ndarray) -> np.ndarray:
-    return Rotation.from_matrix(R).as_rotvec()
+    return rotvec_from_quat(quat_from_matrix(R))
+
+
+def quat_from_rotvec(v: np.ndarray) -> np.ndarray:
+    """Scalar-first unit quaternion(s) of rotation vector(s) (w may be negative beyond pi)."""
+    v = np.asarray(v, dtype=float)
+    if v.shape[-1:] != (3,):
+        raise ValueError(f"expected rotation vectors of shape (..., 3), got {v.shape}")
+    angle = np.linalg.norm(v, axis=-1, keepdims=True)
+    small = angle <= 1e-3
+    a2 = angle * angle
+    scale = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0, np.sin(angle / 2.0) / (angle + small))
+    return np.concatenate([np.cos(angle / 2.0), v * scale], axis=-1)
 
 
 def matrix_from_rotvec(v: np.ndarray) -> np.ndarray:
-    return Rotation.from_rotvec(np.asarray(v, dtype=float)).as_matrix()
+    return matrix_from_quat(quat_from_rotvec(v))
+
+
+def cube_rotations() -> np.ndarray:
+    """The 24 rotations that map the coordinate axes onto +-axes (the octahedral group), (24, 3, 3), in the
+    order and to the bit of scipy's `Rotation.create_group("O")` (ties in a search over them break alike)."""
+    half, c = 0.5, np.sqrt(2) / 2
+    tetrahedral = [(half, y * half, z * half, w * half) for w in (1, -1) for y in (-1, 1) for z in (-1, 1)]
+    octahedral = [(c, 0, 0, c), (0, c, 0, c), (0, 0, c, c), (0, 0, -c, c), (0, -c, 0, c), (-c, 0, 0, c),
+                  (0, c, c, 0), (0, -c, c, 0), (c, 0, c, 0), (-c, 0, c, 0), (c, c, 0, 0), (-c, c, 0, 0)]
+    xyzw = np.concatenate([np.eye(4), np.array(tetrahedral), np.array(octahedral)])
+    return matrix_from_quat(np.roll(xyzw, 1, axis=-1))
+
+
+def _normalised(q: np.ndarray) -> np.ndarray:
+    norm = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.any(norm == 0):
+        raise ValueError("Found zero norm quaternions in `quat`.")
+    return q / norm
+
+
+def _xyzw_from_matrix(R: np.ndarray) -> np.ndarray:
+    """scipy's from_matrix: (x, y, z, w), after the det and orthogonality checks."""
+    R = np.array(R, dtype=float)
+    if R.shape[-2:] != (3, 3):
+        raise ValueError(f"expected rotation matrices of shape (..., 3, 3), got {R.shape}")
+    det = np.linalg.det(R)
+    if np.any(det <= 0):
+        i = int(np.flatnonzero(np.atleast_1d(det) <= 0)[0])
+        raise ValueError(f"Non-positive determinant (left-handed or null coordinate frame) in rotation matrix {i}: "
+                         f"{R.reshape(-1, 3, 3)[i]}.")
+    gram = R @ np.swapaxes(R, -1, -2)
+    skewed = ~np.all(np.isclose(gram, np.eye(3), rtol=1e-5, atol=1e-12), axis=(-2, -1))
+    if np.any(skewed):
+        U, _, Vt = np.linalg.svd(R[skewed], full_matrices=False)
+        R[skewed] = U @ Vt
+    trace = R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2]
+    choice = np.argmax(np.stack([R[..., 0, 0], R[..., 1, 1], R[..., 2, 2], trace], axis=-1), axis=-1)[..., None]
+    cases = [
+        [1 - trace + 2 * R[..., 0, 0], R[..., 1, 0] + R[..., 0, 1], R[..., 2, 0] + R[..., 0, 2], R[..., 2, 1] - R[..., 1, 2]],
+        [R[..., 1, 0] + R[..., 0, 1], 1 - trace + 2 * R[..., 1, 1], R[..., 2, 1] + R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0]],
+        [R[..., 2, 0] + R[..., 0, 2], R[..., 2, 1] + R[..., 1, 2], 1 - trace + 2 * R[..., 2, 2], R[..., 1, 0] - R[..., 0, 1]],
+        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1], 1 + trace],
+    ]
+    q = np.zeros(R.shape[:-2] + (4,))
+    for k, case in enumerate(cases):
+        q = np.where(choice == k, np.stack(case, axis=-1), q)
+    return _normalised(q)
 
 
 def skew(v: np.ndarray) -> np.ndarray:
