@@ -55,15 +55,37 @@ def quat_from_matrix(R: np.ndarray) -> np.ndarray:
 
 
 def matrix_from_quat(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of scalar-first quaternion(s), normalised first."""
-    q = _normalised(np.asarray(q, dtype=float))
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
-    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
-    rows = [x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw),
-            2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw),
-            2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2]
-    return np.stack(rows, axis=-1).reshape(q.shape[:-1] + (3, 3))
+    """Rotation matrix of scalar-first quaternion(s), normalised first.
+
+    Each entry is a quadratic form in q (scipy's as_matrix), so all nine come from the ten products q_a q_b in
+    one matrix product, divided by |q|^2 for the normalisation."""
+    q = np.asarray(q, dtype=float)
+    if q.shape[-1:] != (4,):
+        raise ValueError(f"expected quaternions of shape (..., 4), got {q.shape}")
+    norm2 = np.einsum("...i,...i->...", q, q)
+    if np.any(norm2 == 0):
+        raise ValueError("Found zero norm quaternions in `quat`.")
+    products = q.take(_PRODUCT_A, axis=-1) * q.take(_PRODUCT_B, axis=-1)
+    return ((products @ _QUADRATIC) / norm2[..., None]).reshape(q.shape[:-1] + (3, 3))
+
+
+_PRODUCT_A, _PRODUCT_B = np.array([0, 1, 2, 3, 0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 3, 1, 2, 3, 2, 3, 3])
+
+
+def _quadratic_forms() -> np.ndarray:
+    """(10, 9): the coefficient of each product q_a q_b (a <= b; w, x, y, z = 0, 1, 2, 3) in each entry of R."""
+    entries = [{(0, 0): 1, (1, 1): 1, (2, 2): -1, (3, 3): -1}, {(1, 2): 2, (0, 3): -2}, {(1, 3): 2, (0, 2): 2},
+               {(1, 2): 2, (0, 3): 2}, {(0, 0): 1, (1, 1): -1, (2, 2): 1, (3, 3): -1}, {(2, 3): 2, (0, 1): -2},
+               {(1, 3): 2, (0, 2): -2}, {(2, 3): 2, (0, 1): 2}, {(0, 0): 1, (1, 1): -1, (2, 2): -1, (3, 3): 1}]
+    rows = {(int(a), int(b)): k for k, (a, b) in enumerate(zip(_PRODUCT_A, _PRODUCT_B))}
+    C = np.zeros((10, 9))
+    for j, terms in enumerate(entries):
+        for ab, c in terms.items():
+            C[rows[ab], j] = c
+    return C
+
+
+_QUADRATIC = _quadratic_forms()
 
 
 def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -119,14 +141,14 @@ def matrix_from_rotvec(v: np.ndarray) -> np.ndarray:
 
 
 def cube_rotations() -> np.ndarray:
-    """The 24 rotations that map the coordinate axes onto +-axes (the octahedral group), (24, 3, 3), in the
-    order and to the bit of scipy's `Rotation.create_group("O")` (ties in a search over them break alike)."""
+    """The 24 rotations that map the coordinate axes onto +-axes (the octahedral group), (24, 3, 3), exact, in
+    the order of scipy's `Rotation.create_group("O")` (ties in a search over them break alike)."""
     half, c = 0.5, np.sqrt(2) / 2
     tetrahedral = [(half, y * half, z * half, w * half) for w in (1, -1) for y in (-1, 1) for z in (-1, 1)]
     octahedral = [(c, 0, 0, c), (0, c, 0, c), (0, 0, c, c), (0, 0, -c, c), (0, -c, 0, c), (-c, 0, 0, c),
                   (0, c, c, 0), (0, -c, c, 0), (c, 0, c, 0), (-c, 0, c, 0), (c, c, 0, 0), (-c, c, 0, 0)]
     xyzw = np.concatenate([np.eye(4), np.array(tetrahedral), np.array(octahedral)])
-    return matrix_from_quat(np.roll(xyzw, 1, axis=-1))
+    return np.round(matrix_from_quat(np.roll(xyzw, 1, axis=-1))) + 0.0
 
 
 def _normalised(q: np.ndarray) -> np.ndarray:
@@ -137,7 +159,10 @@ def _normalised(q: np.ndarray) -> np.ndarray:
 
 
 def _xyzw_from_matrix(R: np.ndarray) -> np.ndarray:
-    """scipy's from_matrix: (x, y, z, w), after the det and orthogonality checks."""
+    """scipy's from_matrix: (x, y, z, w), after the det and orthogonality checks.
+
+    Markley's four candidates (one per diagonal entry and one for the trace) are each linear in the entries of
+    R and 1, so all sixteen components come from one matrix product; the best conditioned one is kept."""
     R = np.array(R, dtype=float)
     if R.shape[-2:] != (3, 3):
         raise ValueError(f"expected rotation matrices of shape (..., 3, 3), got {R.shape}")
@@ -147,22 +172,47 @@ def _xyzw_from_matrix(R: np.ndarray) -> np.ndarray:
         raise ValueError(f"Non-positive determinant (left-handed or null coordinate frame) in rotation matrix {i}: "
                          f"{R.reshape(-1, 3, 3)[i]}.")
     gram = R @ np.swapaxes(R, -1, -2)
-    skewed = ~np.all(np.isclose(gram, np.eye(3), rtol=1e-5, atol=1e-12), axis=(-2, -1))
+    skewed = np.any(np.abs(gram - _EYE) > 1e-12 + 1e-5 * _EYE, axis=(-2, -1))    # scipy's isclose(gram, I)
     if np.any(skewed):
         U, _, Vt = np.linalg.svd(R[skewed], full_matrices=False)
         R[skewed] = U @ Vt
-    trace = R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2]
-    choice = np.argmax(np.stack([R[..., 0, 0], R[..., 1, 1], R[..., 2, 2], trace], axis=-1), axis=-1)[..., None]
-    cases = [
-        [1 - trace + 2 * R[..., 0, 0], R[..., 1, 0] + R[..., 0, 1], R[..., 2, 0] + R[..., 0, 2], R[..., 2, 1] - R[..., 1, 2]],
-        [R[..., 1, 0] + R[..., 0, 1], 1 - trace + 2 * R[..., 1, 1], R[..., 2, 1] + R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0]],
-        [R[..., 2, 0] + R[..., 0, 2], R[..., 2, 1] + R[..., 1, 2], 1 - trace + 2 * R[..., 2, 2], R[..., 1, 0] - R[..., 0, 1]],
-        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1], 1 + trace],
-    ]
-    q = np.zeros(R.shape[:-2] + (4,))
-    for k, case in enumerate(cases):
-        q = np.where(choice == k, np.stack(case, axis=-1), q)
-    return _normalised(q)
+    flat = R.reshape(R.shape[:-2] + (9,))
+    candidates = (flat @ _MARKLEY[:9] + _MARKLEY[9]).reshape(R.shape[:-2] + (4, 4))
+    decision = flat[..., [0, 4, 8, 0]]
+    decision[..., 3] = flat[..., 0] + flat[..., 4] + flat[..., 8]
+    choice = np.argmax(decision, axis=-1)[..., None, None]
+    q = np.take_along_axis(candidates, choice, axis=-2)[..., 0, :]
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def _markley_candidates() -> np.ndarray:
+    """(10, 16): the four (x, y, z, w) candidates of scipy's from_matrix as linear maps of (R.ravel(), 1)."""
+    C = np.zeros((10, 4, 4))
+    r = lambda i, j: 3 * i + j  # noqa: E731
+    for k in range(3):                       # candidate k: component k is 1 - trace + 2 R_kk
+        C[9, k, k] = 1.0
+        for i in range(3):
+            C[r(i, i), k, k] -= 1.0
+        C[r(k, k), k, k] += 2.0
+        for i in range(3):
+            if i != k:
+                C[r(i, k), k, i] += 1.0
+                C[r(k, i), k, i] += 1.0
+        i, j = (k + 1) % 3, (k + 2) % 3      # w = R_ji - R_ij
+        C[r(j, i), k, 3] += 1.0
+        C[r(i, j), k, 3] -= 1.0
+    C[9, 3, 3] = 1.0                         # candidate 3: w = 1 + trace, (x, y, z) from the skew part
+    for i in range(3):
+        C[r(i, i), 3, 3] += 1.0
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        C[r(j, i), 3, k] += 1.0
+        C[r(i, j), 3, k] -= 1.0
+    return C.reshape(10, 16)
+
+
+_MARKLEY = _markley_candidates()
+_EYE = np.eye(3)
 
 
 def skew(v: np.ndarray) -> np.ndarray:
