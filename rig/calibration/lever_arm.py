@@ -136,9 +136,17 @@ def moving_mean(a: np.ndarray, width: int) -> np.ndarray:
     a = np.asarray(a, dtype=float)
     if len(a) == 0 or width <= 1:
         return a.copy()
-    half = width // 2
-    padded = np.concatenate([np.repeat(a[:1], half, axis=0), a, np.repeat(a[-1:], half, axis=0)])
-    return np.lib.stride_tricks.sliding_window_view(padded, width, axis=0).sum(axis=-1) / width
+    total = a.copy()                       # each window summed in full: no running sum to drift
+    for shift in range(1, width // 2 + 1):
+        if shift >= len(a):                # the window passes both ends: edge rows only
+            total[:] += a[0] + a[-1]
+            continue
+        total[shift:] += a[:-shift]
+        total[:shift] += a[0]
+        total[:-shift] += a[shift:]
+        total[-shift:] += a[-1]
+    total /= width
+    return total
 
 
 def _width(t: np.ndarray, span_s: float) -> int:
