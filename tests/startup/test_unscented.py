@@ -39,3 +39,13 @@ def test_weights_points_and_update_equal_filterpys(n, m, alpha, beta, kappa):
         scale = np.sqrt(np.abs(np.diag(P)))
         np.testing.assert_allclose(x_new, ukf.x, rtol=1e-10, atol=1e-10 * scale.max())
         np.testing.assert_allclose(P_new, ukf.P, rtol=1e-8, atol=1e-10 * np.abs(P).max())
+
+
+def test_attitude_filter_weights_are_filterpys():
+    from rig.attitude.ukf import STATE_DIM, UKFSettings, sigma_weights
+
+    settings = UKFSettings()
+    points = MerweScaledSigmaPoints(STATE_DIM, alpha=settings.alpha, beta=settings.beta, kappa=settings.kappa)
+    c, wm0, wc0, wi = sigma_weights(settings)
+    lam = settings.alpha ** 2 * (STATE_DIM + settings.kappa) - STATE_DIM
+    assert (c, wm0, wc0, wi) == (np.sqrt(STATE_DIM + lam), points.Wm[0], points.Wc[0], points.Wm[1])
