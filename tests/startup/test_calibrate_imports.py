@@ -1,0 +1,29 @@
+"""What `rig calibrate --from` calibrates with loads no scipy, filterpy or simulated hardware (issue 17, start-up).
+
+The modules below are the whole calibration path of a recorded session (screening, the vector and gyro
+solvers, the lever arm, the writer). Each is imported in a fresh interpreter, so one that pulls a heavy
+package in is named.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+CALIBRATION_PATH = ["rig.pipeline.screening", "rig.pipeline.solving", "rig.pipeline.result", "rig.pipeline.writing",
+                    "rig.calibration.gyro", "rig.calibration.gyro_start", "rig.calibration.joint",
+                    "rig.calibration.lever_arm", "rig.calibration.twostep", "rig.calibration.ellipsoid",
+                    "rig.calibration.quantisation", "rig.calibration.integrate", "rig.rotations", "rig.session_data",
+                    "rig.unscented"]
+HEAVY = {"scipy", "filterpy", "fixtures", "procedures", "drivers", "pymodbus", "matplotlib", "tqdm"}
+
+
+@pytest.mark.parametrize("module", CALIBRATION_PATH)
+def test_calibration_module_loads_nothing_heavy(module):
+    probe = f"import sys, {module}; print(' '.join(sorted(sys.modules)))"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    heavy = sorted({m.split(".")[0] for m in done.stdout.split()} & HEAVY)
+    assert heavy == [], f"importing {module} loads {heavy}"
