@@ -26,7 +26,7 @@ from rig.calibration.brent import minimize_bounded
 from rig.calibration.gyro_start import start_candidates
 from rig.calibration.integrate import SAMPLE_MODELS, cross, interval_terms, product_of_exps
 from rig.calibration.result import TriadCalibration
-from rig.rotations import cube_rotations, quat_from_matrix, rotvec_from_quat
+from rig.quaternions import cube_rotations, quat_from_matrix, rotvec_from_quat
 from rig.session_data import MoveStream
 
 

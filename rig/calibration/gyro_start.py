@@ -16,7 +16,7 @@ The candidates (these and `s I`) are compared on the rotation misfit over all mo
 from __future__ import annotations
 
 import numpy as np
-from rig.rotations import quat_conjugate, quat_multiply, rotvec_from_matrix, rotvec_from_quat
+from rig.quaternions import quat_conjugate, quat_multiply, rotvec_from_matrix, rotvec_from_quat
 from rig.session_data import MoveStream
 
 STRETCH_S = 0.1

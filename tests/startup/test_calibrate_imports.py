@@ -15,8 +15,8 @@ import pytest
 CALIBRATION_PATH = ["rig.pipeline.screening", "rig.pipeline.solving", "rig.pipeline.result", "rig.pipeline.writing",
                     "rig.calibration.gyro", "rig.calibration.gyro_start", "rig.calibration.joint",
                     "rig.calibration.lever_arm", "rig.calibration.twostep", "rig.calibration.ellipsoid",
-                    "rig.calibration.quantisation", "rig.calibration.integrate", "rig.rotations", "rig.session_data",
-                    "rig.unscented"]
+                    "rig.calibration.quantisation", "rig.calibration.integrate", "rig.rotations", "rig.quaternions",
+                    "rig.session_data", "rig.unscented"]
 HEAVY = {"scipy", "filterpy", "fixtures", "procedures", "drivers", "pymodbus", "matplotlib", "tqdm"}
 
 

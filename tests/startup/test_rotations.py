@@ -1,4 +1,4 @@
-"""rig.rotations' numpy conversions against scipy's Rotation, the reference they replace on the start-up path."""
+"""rig.quaternions' numpy conversions against scipy's Rotation, the reference they replace on the start-up path."""
 
 from __future__ import annotations
 
@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from rig.rotations import (axis_angle_matrix, cube_rotations, matrix_from_quat, matrix_from_rotvec, quat_conjugate,
-                           quat_from_matrix, quat_from_rotvec, quat_multiply, rotvec_from_matrix, rotvec_from_quat)
+from rig.quaternions import (cube_rotations, matrix_from_quat, matrix_from_rotvec, quat_conjugate, quat_from_matrix,
+                             quat_from_rotvec, quat_multiply, rotvec_from_matrix, rotvec_from_quat)
+from rig.rotations import axis_angle_matrix
 
 TOL = 1e-14
 
