@@ -80,7 +80,8 @@ def test_generic_problems_match_scipy():
                 (lambda p: p[0] * np.exp(-((t - p[1]) / p[2]) ** 2),
                  lambda p: np.column_stack([np.exp(-((t - p[1]) / p[2]) ** 2),
                                             2 * p[0] * (t - p[1]) / p[2] ** 2 * np.exp(-((t - p[1]) / p[2]) ** 2),
-                                            2 * p[0] * (t - p[1]) ** 2 / p[2] ** 3 * np.exp(-((t - p[1]) / p[2]) ** 2)]))):
+                                            2 * p[0] * (t - p[1]) ** 2 / p[2] ** 3
+                                            * np.exp(-((t - p[1]) / p[2]) ** 2)]))):
             data = model(a) + 1e-3 * rng.normal(size=t.size)
             f = lambda p, model=model, data=data: model(p) - data  # noqa: E731
             x0 = a * rng.uniform(0.8, 1.2, 3)

@@ -13,8 +13,8 @@ def _full(sigma: np.ndarray) -> np.ndarray:
 
 def test_cut_series_equals_the_full_one_to_the_bit():
     rng = np.random.default_rng(61)
-    for sigma in [np.array([0.0]), rng.uniform(0, 0.05, 50), rng.uniform(0, 3, (30, 3)), 10.0 ** rng.uniform(-9, 1, 200),
-                  Q._SIGMA_GRID]:
+    for sigma in [np.array([0.0]), rng.uniform(0, 0.05, 50), rng.uniform(0, 3, (30, 3)),
+                  10.0 ** rng.uniform(-9, 1, 200), Q._SIGMA_GRID]:
         assert np.array_equal(Q.rounding_bias_rms(sigma), _full(sigma))
     grid = Q._SIGMA_GRID
     assert np.array_equal(Q._WITHIN_VARIANCE, grid ** 2 + Q.QUANTISATION_STD ** 2 - _full(grid) ** 2)

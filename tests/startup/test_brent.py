@@ -12,7 +12,8 @@ from rig.calibration.brent import minimize_bounded
 def _functions(rng: np.random.Generator):
     for _ in range(60):
         c, w, k = rng.uniform(-3, 3), rng.uniform(0.1, 5), rng.integers(1, 5)
-        yield (lambda x, c=c, w=w, k=k: float(w * abs(x - c) ** (2 * k) + 0.1 * np.sin(7 * x))), c - 4, c + rng.uniform(1, 6)
+        f = lambda x, c=c, w=w, k=k: float(w * abs(x - c) ** (2 * k) + 0.1 * np.sin(7 * x))  # noqa: E731
+        yield f, c - 4, c + rng.uniform(1, 6)
     yield (lambda x: float(np.cos(x))), 0.0, 20.0                   # many minima
     yield (lambda x: float(x)), -1.0, 1.0                            # minimum at the bound
     yield (lambda x: float(abs(x - 0.3))), 0.0, 1.0                  # kink

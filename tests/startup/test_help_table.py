@@ -29,7 +29,8 @@ def test_table_short_help_equals_the_commands_own(name):
     entry = SUBCOMMANDS[name]
     cmd = _command(name)
     own = cmd.get_short_help_str(10 ** 6)
-    assert isinstance(entry, tuple), f'SUBCOMMANDS[{name!r}]: write ("{entry}", {own!r}) so that --help need not import it'
+    assert isinstance(entry, tuple), \
+        f'SUBCOMMANDS[{name!r}]: write ("{entry}", {own!r}) so that --help need not import it'
     assert not cmd.hidden, f"{name} is hidden but listed by --help from SUBCOMMANDS"
     for limit in LIMITS:
         assert shortened(entry[1], limit) == cmd.get_short_help_str(limit), (name, limit)

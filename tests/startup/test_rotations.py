@@ -49,8 +49,8 @@ def test_single_items_and_shapes():
     assert np.allclose(rotvec_from_matrix(matrix_from_rotvec(v)), v, atol=TOL)
     stack = np.random.default_rng(3).normal(size=(2, 5, 3))
     assert matrix_from_rotvec(stack).shape == (2, 5, 3, 3)
-    assert np.allclose(matrix_from_rotvec(stack).reshape(-1, 3, 3), Rotation.from_rotvec(stack.reshape(-1, 3)).as_matrix(),
-                       atol=TOL)
+    ref = Rotation.from_rotvec(stack.reshape(-1, 3)).as_matrix()
+    assert np.allclose(matrix_from_rotvec(stack).reshape(-1, 3, 3), ref, atol=TOL)
     assert matrix_from_rotvec(np.zeros((0, 3))).shape == (0, 3, 3)
     assert quat_from_matrix(np.zeros((0, 3, 3))).shape == (0, 4)
 
