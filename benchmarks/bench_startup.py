@@ -4,6 +4,10 @@ A command should load what it uses: listing the commands must not import scipy o
 calibrating a recorded session must not pay for what only a running session needs. Targets (issue 17): `rig --help`
 within 0.15 s, `calibrate --from` on a default session within 0.4 s, both as whole processes. Also reports the
 slowest imports of each (python -X importtime), so a regression says where it came from.
+
+Byte-code caches are warm, as in an installed rig after its first run: the children run without
+PYTHONDONTWRITEBYTECODE (which some shells and CI set; with it an editable install compiles every rig module
+from source on every run, ~0.05 s more) and a first run writes the caches.
 Usage: python benchmarks/bench_startup.py [--repeat N]
 """
 
@@ -29,11 +33,14 @@ from rig.io.session_csv import write_session  # noqa: E402
 RIG = [sys.executable, "-m", "rig.cli"]
 
 
+CACHED = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
 def timed(argv: list[str], repeat: int) -> dict:
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        done = subprocess.run(argv, capture_output=True, text=True)
+        done = subprocess.run(argv, capture_output=True, text=True, env=CACHED)
         times.append(time.perf_counter() - t0)
         if done.returncode != 0:
             raise SystemExit(f"{' '.join(argv)} exited {done.returncode}: {done.stderr.strip()[-400:]}")
@@ -42,7 +49,7 @@ def timed(argv: list[str], repeat: int) -> dict:
 
 def slowest_imports(argv: list[str], top: int = 6) -> list[dict]:
     """The packages whose import cost most: the largest cumulative time of any of their modules (-X importtime)."""
-    done = subprocess.run([sys.executable, "-X", "importtime", *argv[1:]], capture_output=True, text=True)
+    done = subprocess.run([sys.executable, "-X", "importtime", *argv[1:]], capture_output=True, text=True, env=CACHED)
     totals: dict[str, int] = {}
     for line in done.stderr.splitlines():
         if not line.startswith("import time:") or line.count("|") != 2:
@@ -59,13 +66,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
     args = parser.parse_args()
-    os.environ.setdefault("PYTHONDONTWRITEBYTECODE", "0")
     session, _ = build_session(seed=1, hold_s=5.7)
     with tempfile.TemporaryDirectory() as tmp:
         folder = write_session(session, Path(tmp) / "session")
         help_argv = [*RIG, "--help"]
         from_argv = [*RIG, "calibrate", "--from", str(folder), "--out", str(Path(tmp) / "out")]
-        subprocess.run(from_argv, capture_output=True)       # warm the byte-code caches
+        subprocess.run(from_argv, capture_output=True, env=CACHED)       # warm the byte-code caches
         result = {
             "benchmark": "startup",
             "python": sys.version.split()[0],

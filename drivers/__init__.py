@@ -1,23 +1,25 @@
 """Register-level drivers for the rig's sensor chips and ADC.
 
 Each driver takes an injected bus (smbus2.SMBus-like or spidev.SpiDev-like) and a `sleep` callable, so the
-same code runs on hardware and on the simulated rig.
+same code runs on hardware and on the simulated rig. The names below load their module when first used
+(PEP 562), so code that needs only a constant (`drivers.units`) does not load every driver and bus library.
 """
 
-from drivers.adxl312 import ADXL312
-from drivers.adxl330 import ADXL330
-from drivers.adxrs453 import ADXRS453, GyroTriad
-from drivers.buses import open_i2c, open_spi
-from drivers.errors import (BusError, DeviceAbsent, DriverError, FifoOverrun, ProtocolError, SensorFault,
-                            SensorSaturated, WrongIdentity)
-from drivers.hmc1053 import HMC1053
-from drivers.hmc5843 import HMC5843
-from drivers.itg3200 import ITG3200
-from drivers.mcp3208 import MCP3208
+from __future__ import annotations
 
-__all__ = [
-    "ADXL312", "ADXL330", "ADXRS453", "GyroTriad", "HMC1053", "HMC5843", "ITG3200", "MCP3208",
-    "open_i2c", "open_spi",
-    "DriverError", "BusError", "DeviceAbsent", "WrongIdentity", "ProtocolError", "SensorFault",
-    "SensorSaturated", "FifoOverrun",
-]
+import importlib
+
+_EXPORTS = {
+    "ADXL312": "drivers.adxl312", "ADXL330": "drivers.adxl330", "ADXRS453": "drivers.adxrs453",
+    "GyroTriad": "drivers.adxrs453", "HMC1053": "drivers.hmc1053", "HMC5843": "drivers.hmc5843",
+    "ITG3200": "drivers.itg3200", "MCP3208": "drivers.mcp3208", "open_i2c": "drivers.buses", "open_spi": "drivers.buses",
+    **{name: "drivers.errors" for name in ("DriverError", "BusError", "DeviceAbsent", "WrongIdentity", "ProtocolError",
+                                           "SensorFault", "SensorSaturated", "FifoOverrun")},
+}
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'drivers' has no attribute {name!r}")

@@ -11,21 +11,55 @@ import sys
 
 import click
 
-# name -> "module:attribute" of a click command
-SUBCOMMANDS = {
-    "calibrate": "rig.commands.calibrate:calibrate",
-    "resume": "rig.commands.calibrate:resume",
-    "plan": "rig.commands.calibrate:plan",
-    "export": "rig.commands.export:export",
-    "repeatability": "rig.commands.repeatability:repeatability",
-    "paper": "rig.commands.paper:paper",
-    "discrepancy": "rig.commands.discrepancy:discrepancy",
-    "attitude": "rig.commands.attitude:attitude",
-    "validate": "rig.commands.attitude:validate",
-    "table": "rig.turntable.cli:table",
-    "sim-turntable": "fixtures.turntable.cli:sim_turntable",
-    "import": "rig.commands.importing:import_group",
+# The subcommands, imported only when run: name -> ("module:attribute" of a click command, its short help).
+# The short help is what `rig --help` lists, kept here so that listing imports nothing (issue 17, start-up);
+# it is the first sentence of the command's docstring, as click shows it (tests/startup/test_help_table.py
+# holds each equal to the command's own). One line per command; a bare "module:attribute" still works (the
+# command is then imported to list it, and that test names the text to add).
+SUBCOMMANDS: dict[str, tuple[str, str] | str] = {
+    "calibrate": ("rig.commands.calibrate:calibrate",
+                  "Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."),
+    "resume": ("rig.commands.calibrate:resume",
+               "Finish an interrupted session: hold again at its last recorded orientation, record the rest, "
+               "calibrate."),
+    "plan": ("rig.commands.calibrate:plan", "Dry run: the schedule, its observability and the ETA."),
+    "export": ("rig.commands.export:export",
+               "Write the session in SESSION as meta.json + samples.csv in the folder given by --to."),
+    "repeatability": ("rig.commands.repeatability:repeatability",
+                      "Run TRIALS sessions on one unit and report the mean and standard deviation of B and H "
+                      "(paper Fig."),
+    "paper": ("rig.commands.paper:paper", "Reproduce Table I (accelerometer) and Table II (gyroscope) of Zhang et al."),
+    "discrepancy": ("rig.commands.discrepancy:discrepancy",
+                    "Fit the linear model, test every candidate effect, report the ones the data support."),
+    "attitude": ("rig.commands.attitude:attitude",
+                 "Run the quaternion UKF on a session with motion (the rig's folder or an interchange one) and "
+                 "compare with its reference."),
+    "validate": ("rig.commands.attitude:validate",
+                 "Calibrate, run the dynamic trajectory on the same unit, and write the Table III attitude report."),
+    "table": ("rig.turntable.cli:table", "Drive the two-axis Modbus turntable."),
+    "sim-turntable": ("fixtures.turntable.cli:sim_turntable",
+                      "Serve a fake two-axis turntable (map tt-map/1 or --profile) until Ctrl-C."),
+    "import": ("rig.commands.importing:import_group",
+               "A recording from another logger as a session folder every command accepts."),
 }
+
+
+def subcommand_target(name: str) -> str:
+    """The "module:attribute" of subcommand `name` (either shape of its SUBCOMMANDS entry)."""
+    entry = SUBCOMMANDS[name]
+    return entry if isinstance(entry, str) else entry[0]
+
+
+def shortened(text: str, limit: int) -> str:
+    """`text` cut to `limit` characters at a word, as click shortens a command's short help."""
+    text = " ".join(text.split())
+    if len(text) <= limit:
+        return text
+    if limit < len("..."):
+        return "..."
+    import textwrap
+
+    return textwrap.shorten(text, limit, placeholder="...", break_on_hyphens=False)
 
 
 class LazyGroup(click.Group):
@@ -35,9 +69,27 @@ class LazyGroup(click.Group):
     def get_command(self, ctx, name):
         cmd = super().get_command(ctx, name)
         if cmd is None and name in SUBCOMMANDS:
-            module, attr = SUBCOMMANDS[name].split(":")
+            module, attr = subcommand_target(name).split(":")
             cmd = getattr(importlib.import_module(module), attr)
         return cmd
+
+    def format_commands(self, ctx, formatter):
+        """click's list of commands, with the short help of SUBCOMMANDS so that listing imports none of them."""
+        rows = []
+        for name in self.list_commands(ctx):
+            entry = SUBCOMMANDS.get(name) if name not in self.commands else None
+            if isinstance(entry, tuple):
+                rows.append((name, entry[1]))
+                continue
+            cmd = self.get_command(ctx, name)
+            if cmd is not None and not cmd.hidden:
+                rows.append((name, cmd))
+        if rows:
+            limit = formatter.width - 6 - max(len(name) for name, _ in rows)
+            rows = [(name, shortened(help, limit) if isinstance(help, str) else help.get_short_help_str(limit))
+                    for name, help in rows]
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         """click's main with the last-resort guard around it (see `guarded`)."""

@@ -1,7 +1,9 @@
 """Rotations, quaternions and the two-axis table geometry of `shared/spec/conventions.md`.
 
 Quaternions are scalar-first `(w, x, y, z)`, Hamilton product, fixture -> world, stored with `w >= 0`.
-Matrices `R` map fixture vectors to world vectors. Functions accept a single item or a stack.
+Matrices `R` map fixture vectors to world vectors. Functions accept a single item or a stack. The
+conversions between quaternions, rotation vectors and matrices live in rig.quaternions (numpy, without
+scipy's import cost) and are offered here too, where the project has always imported them from.
 """
 
 from __future__ import annotations
@@ -9,7 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from rig.quaternions import (cube_rotations, matrix_from_quat, matrix_from_rotvec, quat_conjugate,  # noqa: F401
+                             quat_from_matrix, quat_from_rotvec, quat_multiply, rotvec_from_matrix, rotvec_from_quat)
 
 
 def rot_x(angle_rad: float | np.ndarray) -> np.ndarray:
@@ -39,38 +43,7 @@ def axis_angle_matrix(axis: np.ndarray, angle_rad: float | np.ndarray) -> np.nda
     axis = np.asarray(axis, dtype=float)
     axis = axis / np.linalg.norm(axis)
     a = np.asarray(angle_rad, dtype=float)
-    return Rotation.from_rotvec(np.multiply.outer(a, axis)).as_matrix()
-
-
-def quat_from_matrix(R: np.ndarray) -> np.ndarray:
-    """Scalar-first unit quaternion(s) with w >= 0."""
-    q = Rotation.from_matrix(R).as_quat(scalar_first=True)
-    return np.where(q[..., :1] < 0, -q, q)
-
-
-def matrix_from_quat(q: np.ndarray) -> np.ndarray:
-    return Rotation.from_quat(np.asarray(q, dtype=float), scalar_first=True).as_matrix()
-
-
-def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product p * q for scalar-first quaternions."""
-    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
-    w1, x1, y1, z1 = np.moveaxis(p, -1, 0)
-    w2, x2, y2, z2 = np.moveaxis(q, -1, 0)
-    return np.stack([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ], -1)
-
-
-def rotvec_from_matrix(R: np.ndarray) -> np.ndarray:
-    return Rotation.from_matrix(R).as_rotvec()
-
-
-def matrix_from_rotvec(v: np.ndarray) -> np.ndarray:
-    return Rotation.from_rotvec(np.asarray(v, dtype=float)).as_matrix()
+    return matrix_from_rotvec(np.multiply.outer(a, axis))
 
 
 def skew(v: np.ndarray) -> np.ndarray:

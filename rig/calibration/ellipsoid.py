@@ -6,7 +6,7 @@ every calibrated static reading has the same magnitude, so the raw points lie on
 `(y - B)^T A (y - B) = 1` whose centre is the combined bias B. The quadric
 `y^T M y + 2 m^T y = 1` is linear in its nine coefficients, hence one least-squares solve.
 
-The solves go straight to LAPACK (`scipy.linalg.lapack`): on 3x3 and 9x9 systems numpy.linalg's wrapping
+The solves go straight to LAPACK (small_lapack.py): on 3x3 and 9x9 systems numpy.linalg's wrapping
 costs three to five times the arithmetic, and the two-step solve is timed against a 0.07 ms budget.
 """
 
@@ -16,17 +16,16 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.linalg import lapack
-
+from rig.calibration.small_lapack import solve_with_condition, symmetric_eigen, symmetric_eigenvalues
 from rig.errors import CalibrationError
 
 MIN_POINTS = 9
 DISTINCT_RADIUS = 0.02   # in units of the RMS spread of the points: ~1 deg of orientation
 MIN_RCOND = 1e-13        # of the 9x9 normal matrix: singular-value ratio of the design below ~3e-7 is degenerate
 SPREAD_RATIO_MIN = 0.05  # smallest/largest singular value of a spread (points, directions) below which it is flat
-_QI, _QJ = [0, 1, 2, 0, 0, 1, 0, 1, 2], [0, 1, 2, 1, 2, 2, 3, 3, 3]
+_QI, _QJ = np.array([0, 1, 2, 0, 0, 1, 0, 1, 2]), np.array([0, 1, 2, 1, 2, 2, 3, 3, 3])
 _QW = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0])
-_SYM = [0, 3, 4, 3, 1, 5, 4, 5, 2]
+_SYM = np.array([0, 3, 4, 3, 1, 5, 4, 5, 2])
 
 
 @dataclass
@@ -71,11 +70,11 @@ def fit_ellipsoid(y: np.ndarray, *, what: str = "ellipsoid fit", check_repeats: 
     np.divide(yc, scale, out=p1[:, :3])
     if check_repeats:
         _refuse_repeats(p1[:, :3], what)
-    D = p1[:, _QI] * p1[:, _QJ] * _QW                 # x1^2 x2^2 x3^2 2x1x2 2x1x3 2x2x3 2x
+    D = p1.take(_QI, axis=1) * p1.take(_QJ, axis=1) * _QW   # x1^2 x2^2 x3^2 2x1x2 2x1x3 2x2x3 2x
     c = _solve_normal_equations(D, what)
-    M = c[_SYM].reshape(3, 3)
-    w, V, info = lapack.dsyev(M)
-    if info != 0 or not w[-1] > 0:
+    M = c.take(_SYM).reshape(3, 3)
+    w, V = symmetric_eigen(M)
+    if not (np.isfinite(w).all() and w[-1] > 0):
         raise CalibrationError(f"{what}: singular quadric, the points do not bound an ellipsoid")
     centre_p = -V @ ((V.T @ c[6:]) / w)               # M centre = -m
     k = 1.0 - float(centre_p @ c[6:])                 # 1 + centre^T M centre
@@ -92,7 +91,7 @@ def refuse_coplanar(scatter: np.ndarray, what: str, min_spread: float = SPREAD_R
 
     scatter is `yc^T yc` of the centred points; returns its eigenvalues (ascending) for the caller's use.
     """
-    w = lapack.dsyev(scatter, compute_v=0)[0]
+    w = symmetric_eigenvalues(scatter)
     if not w[2] > 0:
         raise CalibrationError(f"{what}: all points are identical")
     ratio = np.sqrt(max(w[0], 0.0) / w[2])            # of the singular values of the centred points
@@ -112,13 +111,13 @@ def _refuse_repeats(p: np.ndarray, what: str) -> None:
 
 
 def _solve_normal_equations(D: np.ndarray, what: str) -> np.ndarray:
-    """Least-squares coefficients of D c = 1 through the Cholesky factor of D^T D, refusing a degenerate D.
+    """Least-squares coefficients of D c = 1 from the normal equations, refusing a degenerate D.
 
-    The 1-norm dpocon wants is replaced by the trace, within a factor 3 of it for a 9x9 SPD matrix: plenty
-    for a threshold set at 1e-13."""
+    The reciprocal condition number is LAPACK's (dpocon's) 1 / (||A||_1 ||A^-1||_1), with the trace for the
+    1-norm of A, within a factor 3 of it for a 9x9 SPD matrix: plenty for a threshold set at 1e-13."""
     DtD = D.T @ D
-    chol, c, info = lapack.dposv(DtD, D.sum(axis=0))
-    if info != 0 or lapack.dpocon(chol, np.trace(DtD))[0] < MIN_RCOND:
+    c, rcond = solve_with_condition(DtD, D.sum(axis=0), DtD.trace())
+    if not rcond >= MIN_RCOND:
         raise CalibrationError(f"{what}: the points are degenerate (coplanar or on a conic); "
                                "add orientations that tilt every sensor axis")
     return c

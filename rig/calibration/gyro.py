@@ -9,6 +9,11 @@ Equation numbers follow the brief; the paper's text could not be retrieved here,
 measurement is our reconstruction: per move, the rotation vector of `R_known^T R_int(H)`, whose
 expected value is zero. Using the rotation error (not Euler angles or a quaternion difference)
 keeps the measurement 3-dimensional, smooth at the solution and free of sign ambiguity.
+
+The filter is filterpy's unscented update written in numpy (rig.unscented; the gyro tests run the fit
+through filterpy's UnscentedKalmanFilter too and hold both equal), and the scale search runs scipy's
+bounded Brent (calibration.brent): importing filterpy and scipy.optimize would cost more than a whole
+`rig calibrate --from` may take (issue 17, start-up).
 """
 
 from __future__ import annotations
@@ -16,14 +21,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
-from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
-from scipy.optimize import minimize_scalar
-
+from rig import unscented
+from rig.calibration.brent import minimize_bounded
 from rig.calibration.gyro_start import start_candidates
 from rig.calibration.integrate import SAMPLE_MODELS, cross, interval_terms, product_of_exps
 from rig.calibration.result import TriadCalibration
-from rig.rotations import quat_from_matrix
+from rig.quaternions import cube_rotations, quat_from_matrix, rotvec_from_quat
 from rig.session_data import MoveStream
 
 
@@ -185,11 +188,11 @@ def scale_search(ms: MoveSet, mounting: np.ndarray | None = None, min_rate_dps: 
 def path_bound(ms: MoveSet) -> float:
     """max over moves of (net angle / raw path length): a lower bound of the scale, independent of mounting."""
     path = np.linalg.norm(ms.S, axis=-1).sum(axis=1)
-    angle = np.linalg.norm(Rotation.from_quat(ms.q_known, scalar_first=True).as_rotvec(), axis=-1)
+    angle = np.linalg.norm(rotvec_from_quat(ms.q_known), axis=-1)
     return float(np.max(angle / np.where(path > 0, path, np.inf)))
 
 
-CUBE_ROTATIONS = Rotation.create_group("O").as_matrix()   # the 24 ways to mount a board square to the fixture
+CUBE_ROTATIONS = cube_rotations()   # the 24 ways to mount a board square to the fixture
 
 
 def square_mounting(ms: MoveSet) -> np.ndarray:
@@ -235,9 +238,8 @@ def scalar_search(cost_batch, lo: float, hi: float, step: float = 1.05) -> float
     costs = np.concatenate([cost_batch(chunk) for chunk in np.array_split(grid, max(1, len(grid) // 16))])
     i = int(np.argmin(costs))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-    res = minimize_scalar(lambda s: float(cost_batch(np.array([s]))[0]), bounds=(a, b), method="bounded",
-                          options={"xatol": 1e-6 * grid[i]})
-    return float(res.x) if res.fun <= costs[i] else float(grid[i])
+    x, fx, _ = minimize_bounded(lambda s: float(cost_batch(np.array([s]))[0]), a, b, xatol=1e-6 * grid[i])
+    return float(x) if fx <= costs[i] else float(grid[i])
 
 
 def _scalar_cost(s: np.ndarray, ms: MoveSet, Q: np.ndarray) -> np.ndarray:
@@ -282,22 +284,19 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
         raise ValueError(f"calibrate_gyro_ukf: noise_rad must be positive, got {noise_rad!r}")
     if max_passes < 1:
         raise ValueError(f"calibrate_gyro_ukf: max_passes must be >= 1, got {max_passes}")
-    points = MerweScaledSigmaPoints(9, alpha=sigma_alpha, beta=2.0, kappa=0.0)
-    ukf = _UKF(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
-    ukf.Q = np.eye(9) * process_rel_std ** 2
-    ukf.R = np.eye(3) * noise_rad ** 2
+    weights = unscented.merwe_weights(9, alpha=sigma_alpha, beta=2.0, kappa=0.0)
+    Q = np.eye(9) * process_rel_std ** 2
     full = _singles(ms)
     coarse = full if first_pass_stride <= 1 else _singles(MoveSet.build(decimated(moves, first_pass_stride), B, samples))
     w = move_weights(ms) if weight_by_duration else np.ones(len(ms.steps))
     passes, converged, prior = 0, False, prior_rel_std
     for passes in range(1, max_passes + 1):
-        ukf.x = H.ravel() / s
-        ukf.P = np.eye(9) * prior ** 2
+        x, P = H.ravel() / s, np.eye(9) * prior ** 2
         for one, wi in zip(coarse if passes == 1 else full, w):
-            _ukf_move_update(ukf, one, s, noise_rad ** 2 * wi)
-        H_new = ukf.x.reshape(3, 3) * s
+            x, P = _ukf_move_update(x, P, Q, one, s, noise_rad ** 2 * wi, weights)
+        H_new = x.reshape(3, 3) * s
         change = float(np.linalg.norm(H_new - H) / np.linalg.norm(H_new))
-        spread = float(np.sqrt(np.max(np.diag(ukf.P)) * _variance_factor(H_new, ms, noise_rad, w)))
+        spread = float(np.sqrt(np.max(np.diag(P)) * _variance_factor(H_new, ms, noise_rad, w)))
         prior = min(prior_rel_std, max(3.0 * change, 10.0 * spread, 1e-6))
         H = H_new
         if history is not None:
@@ -306,7 +305,7 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
             converged = True
             break
     variance_factor = _variance_factor(H, ms, noise_rad, w)
-    return gyro_result(H, B, ms, ukf.P * s * s * variance_factor, "gyro-ukf", passes, converged,
+    return gyro_result(H, B, ms, P * s * s * variance_factor, "gyro-ukf", passes, converged,
                        {"noise_rad": float(noise_rad), "variance_factor": variance_factor, "moves": len(ms.steps),
                         "last_change": change, "sample_model": samples})
 
@@ -350,14 +349,6 @@ def misfit_to_noise(cal: TriadCalibration, moves: list[MoveStream], rate_noise_c
     return float(np.mean(per_move ** 2) / np.mean(walk))
 
 
-class _UKF(UnscentedKalmanFilter):
-    """filterpy's filter with its cross variance as one product: the library sums np.outer over the sigma
-    points in Python, a fifth of the fit's time. Same sum (the residuals here are plain differences)."""
-
-    def cross_variance(self, x, z, sigmas_f, sigmas_h):
-        return (self.Wc[:, None] * (sigmas_f - x)).T @ (sigmas_h - z)
-
-
 def _singles(ms: MoveSet) -> list[MoveSet]:
     return [ms.subset(i) for i in range(len(ms.steps))]
 
@@ -376,22 +367,18 @@ def _variance_factor(H: np.ndarray, ms: MoveSet, noise_rad: float, w: np.ndarray
     return float(r @ r) / max(r.size - 9, 1) / noise_rad ** 2
 
 
-def _ukf_move_update(ukf: UnscentedKalmanFilter, one: MoveSet, s: float, r_var: float) -> None:
-    """Predict, then update with one move; h(x) of all sigma points comes from one batched integration.
+def _ukf_move_update(x: np.ndarray, P: np.ndarray, Q: np.ndarray, one: MoveSet, s: float, r_var: float,
+                     weights: unscented.MerweWeights) -> tuple[np.ndarray, np.ndarray]:
+    """Predict, then update (x, P) with one move; h(x) of all sigma points comes from one batched integration.
 
-    filterpy's update() calls hx once per row of `sigmas_f`, in order; handing it the precomputed
-    rows in that order gives the same result as per-point calls at a fraction of the cost.
+    The prediction is the identity process: the unscented transform would return x and P unchanged, so
+    only the process noise is added before the sigma points are drawn.
     """
-    # predict() with the identity process: the unscented transform would return x and P unchanged,
-    # so only the process noise is added and the sigma points drawn.
-    ukf.P = ukf.P + ukf.Q
-    ukf.compute_process_sigmas(1.0)
-    z_sigma = rotation_residuals(ukf.sigmas_f.reshape(-1, 3, 3) * s, one)[:, 0, :]
-    rows = iter(z_sigma)
-    ukf.update(np.zeros(3), R=np.eye(3) * r_var, hx=lambda _x: next(rows))
-    if next(rows, None) is not None:
-        raise RuntimeError("filterpy's update() did not consume one measurement per sigma point")
-    ukf.P = 0.5 * (ukf.P + ukf.P.T)
+    P = P + Q
+    sigmas = unscented.sigma_points(x, P, weights)
+    z_sigma = rotation_residuals(sigmas.reshape(-1, 3, 3) * s, one)[:, 0, :]
+    x, P = unscented.update(x, P, sigmas, z_sigma, np.zeros(3), np.eye(3) * r_var, weights)
+    return x, 0.5 * (P + P.T)
 
 
 def gyro_result(H: np.ndarray, B: np.ndarray, ms: MoveSet, H_cov: np.ndarray, method: str, iterations: int,

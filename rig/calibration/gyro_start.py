@@ -16,8 +16,7 @@ The candidates (these and `s I`) are compared on the rotation misfit over all mo
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
-
+from rig.quaternions import quat_conjugate, quat_multiply, rotvec_from_matrix, rotvec_from_quat
 from rig.session_data import MoveStream
 
 STRETCH_S = 0.1
@@ -59,15 +58,14 @@ def reference_stretches(moves: list[MoveStream], B: np.ndarray, stretch_s: float
         qb.append(m.q_ref[cut[1:]])
     if not S:
         return np.empty((0, 3)), np.empty((0, 3))
-    ra = Rotation.from_quat(np.vstack(qa), scalar_first=True)
-    rb = Rotation.from_quat(np.vstack(qb), scalar_first=True)
-    return np.vstack(S), (ra.inv() * rb).as_rotvec()
+    qa, qb = (np.vstack(q) / np.linalg.norm(np.vstack(q), axis=1, keepdims=True) for q in (qa, qb))
+    return np.vstack(S), rotvec_from_quat(quat_multiply(quat_conjugate(qa), qb))
 
 
 def whole_moves(moves: list[MoveStream], B: np.ndarray):
     """(raw integral, known rotation vector) of each move."""
     S = np.array([_integral(m, B)[-1] for m in moves])
-    phi = Rotation.from_matrix(np.array([m.known_rotation for m in moves])).as_rotvec()
+    phi = rotvec_from_matrix(np.array([m.known_rotation for m in moves]))
     return S, phi
 
 

@@ -17,17 +17,28 @@ _HARMONICS = np.arange(1, 65)[:, None]
 
 
 def rounding_bias_rms(sigma: np.ndarray) -> np.ndarray:
-    """RMS rounding bias (counts) of the mean of many samples with Gaussian noise `sigma` (counts)."""
+    """RMS rounding bias (counts) of the mean of many samples with Gaussian noise `sigma` (counts).
+
+    Harmonics below 1e-20 of the first for the smallest sigma are left out: they cannot change the sum."""
     sigma = np.atleast_1d(np.asarray(sigma, dtype=float))
-    k2 = _HARMONICS ** 2
+    k2 = _HARMONICS[:_harmonics_needed(float(sigma.min()) if sigma.size else 0.0)] ** 2
     return np.sqrt(np.sum(np.exp(-4 * np.pi ** 2 * k2 * sigma.ravel() ** 2) / (2 * np.pi ** 2 * k2), axis=0)
                    ).reshape(sigma.shape)
+
+
+def _harmonics_needed(sigma_min: float) -> int:
+    """How many harmonics reach 1e-20 of the first: exp(-4 pi^2 sigma^2 (k^2 - 1)) < 1e-20."""
+    if not sigma_min > 0:
+        return len(_HARMONICS)
+    return int(min(len(_HARMONICS), np.ceil(np.sqrt(1.0 + np.log(1e20) / (4 * np.pi ** 2 * sigma_min ** 2)))))
 
 
 _SIGMA_GRID = np.linspace(0.0, 2.0, 4001)
 # Mean within-hold variance of rounded samples with noise sigma, over true values spread across a count: the
 # total variance sigma^2 + 1/12 less the part that the rounding bias moves from hold to hold. Increasing.
-_WITHIN_VARIANCE = _SIGMA_GRID ** 2 + QUANTISATION_STD ** 2 - rounding_bias_rms(_SIGMA_GRID) ** 2
+# Computed in pieces so that each needs only its own harmonics (a fifth of the import time, same values).
+_WITHIN_VARIANCE = _SIGMA_GRID ** 2 + QUANTISATION_STD ** 2 - np.concatenate(
+    [rounding_bias_rms(piece) for piece in np.array_split(_SIGMA_GRID, 16)]) ** 2
 
 
 def noise_sigma(std: np.ndarray) -> np.ndarray:

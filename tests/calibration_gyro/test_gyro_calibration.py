@@ -93,15 +93,36 @@ def test_mirrored_axis_is_flagged_not_silently_fitted(rng):
         assert any("does not explain the moves" in w for w in cal.warnings)
 
 
-def test_batched_cross_variance_is_filterpys(rng):
-    """The fit's filter replaces filterpy's per-sigma-point loop by one product; the sum must not change."""
+def _filterpy_move_update(x, P, Q, one, s, r_var, weights):
+    """The fit's predict and update of one move through filterpy's UnscentedKalmanFilter, the reference."""
     from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
-    from rig.calibration.gyro import _UKF
 
-    points = MerweScaledSigmaPoints(9, alpha=0.1, beta=2.0, kappa=0.0)
-    ours = _UKF(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
-    theirs = UnscentedKalmanFilter(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
-    x, z = rng.normal(size=9), rng.normal(size=3)
-    sf, sh = rng.normal(size=(19, 9)), rng.normal(size=(19, 3))
-    np.testing.assert_allclose(ours.cross_variance(x, z, sf, sh), theirs.cross_variance(x, z, sf, sh), rtol=1e-12,
-                               atol=1e-14)
+    from rig.calibration.gyro import rotation_residuals
+
+    points = MerweScaledSigmaPoints(9, alpha=weights.alpha, beta=weights.beta, kappa=weights.kappa)
+    ukf = UnscentedKalmanFilter(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
+    ukf.x, ukf.P, ukf.Q = x.copy(), P + Q, Q
+    ukf.compute_process_sigmas(1.0)
+    rows = iter(rotation_residuals(ukf.sigmas_f.reshape(-1, 3, 3) * s, one)[:, 0, :])
+    ukf.update(np.zeros(3), R=np.eye(3) * r_var, hx=lambda _x: next(rows))
+    assert next(rows, None) is None
+    return ukf.x, 0.5 * (ukf.P + ukf.P.T)
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.005])
+def test_fit_equals_filterpys_unscented_filter(rng, monkeypatch, noise):
+    """The fit's numpy filter (rig.unscented) gives filterpy's result, pass by pass, to round-off."""
+    import rig.calibration.gyro as gyro
+
+    for _ in range(3):
+        H, B = random_gyro_truth(rng)
+        moves, _ = simulate_gyro_moves(rng, H, B, orientations=12, noise_rad_s=noise)
+        ours_history, ref_history = [], []
+        ours = calibrate_gyro_ukf(moves, B, history=ours_history)
+        with monkeypatch.context() as m:
+            m.setattr(gyro, "_ukf_move_update", _filterpy_move_update)
+            ref = calibrate_gyro_ukf(moves, B, history=ref_history)
+        assert ours.iterations == ref.iterations and len(ours_history) == len(ref_history)
+        for a, b in zip(ours_history, ref_history):
+            assert rel_err(a, b) < 1e-12
+        np.testing.assert_allclose(ours.H_cov, ref.H_cov, rtol=1e-9, atol=1e-9 * np.abs(ref.H_cov).max())
