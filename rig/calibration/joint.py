@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.levenberg import levenberg_marquardt
+from rig.calibration.levenberg import minimise
 from rig.calibration.observability import direction_problems, tangent_basis, validate_holds
 from rig.calibration.quantisation import QUANTISATION_STD, mean_standard_error
 from rig.calibration.result import TriadCalibration
@@ -228,15 +228,8 @@ def _refine_ml(y, R, norm, sigma, start: TriadCalibration, v0, weighted: bool) -
 
 
 def least_squares_lm(residuals, jacobian, p0: np.ndarray):
-    """The refinement's minimiser: ours (levenberg.py), else scipy's MINPACK from the same start.
-
-    scipy.optimize is imported only on that rarely taken path: it costs ~0.25 s to import (start-up)."""
-    sol = levenberg_marquardt(residuals, jacobian, p0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
-    if sol.success:
-        return sol
-    from scipy.optimize import least_squares
-
-    return least_squares(residuals, p0, jac=jacobian, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    """The refinement's minimiser (levenberg.minimise: ours, else scipy's MINPACK from the same start)."""
+    return minimise(residuals, jacobian, p0, tol=1e-14)
 
 
 def _fix_sign(result: TriadCalibration) -> None:

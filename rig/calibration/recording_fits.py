@@ -4,7 +4,7 @@ Accelerometer from static poses, `H (y_k - B) = g u_k`: where a pose says which 
 direction `u_k` is that axis tilted by a small unknown angle with the prior standard deviation the procedure
 gives (`tilt_deg_sd`: a hand-placed face is not at its nominal attitude, and taking it as exact puts the tilt
 into H); a pose without that knowledge only says `|H (y_k - B)| = g`. Maximum a posteriori over B, H and the
-tilts (Gauss-Newton by `least_squares`); the faces' priors fix the orientation of the frame that the norms alone
+tilts (Levenberg-Marquardt, `levenberg.minimise`); the faces' priors fix the orientation of the frame that the norms alone
 leave free.
 
 Gyroscope: B from the static poses; H from what the recording knows of its motions. A turn of known angle
@@ -18,9 +18,8 @@ open. Both enter one weighted least-squares fit.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
-
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats
+from rig.calibration.levenberg import minimise
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream
 
@@ -98,7 +97,7 @@ def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_
         return np.maximum(np.sqrt((se ** 2) @ (H ** 2).T), MEAN_SE_FLOOR * norm)
 
     p0 = np.concatenate([B0, (H0 / scale).ravel(), np.zeros(2 * n_known)])
-    res = least_squares(residuals, p0, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=2000)
+    res = minimise(residuals, None, p0, tol=1e-14, max_nfev=2000)
     B, H, d = unpack(res.x)
     u = np.zeros_like(means)
     a = (means - B) @ H.T
@@ -111,7 +110,7 @@ def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_
     cov_BH = cov[:12, :12] * np.r_[np.ones(3), np.full(9, scale)][:, None] * np.r_[np.ones(3), np.full(9, scale)][None]
     tilt_deg = np.zeros(len(means))
     tilt_deg[known] = np.degrees(np.linalg.norm(d, axis=1))
-    return B, H, u, {"tilt_deg": tilt_deg.tolist(), "cov": cov_BH, "converged": bool(res.status > 0),
+    return B, H, u, {"tilt_deg": tilt_deg.tolist(), "cov": cov_BH, "converged": bool(res.success),
                      "iterations": int(res.nfev)}
 
 
@@ -161,13 +160,12 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
         r = stacked(X)
         return ((r[1:] - r[0]) / step).T
 
-    res = least_squares(fun, (H0 / scale).ravel(), jac=jac, method="lm", xtol=1e-13, ftol=1e-13, gtol=1e-13,
-                        max_nfev=400)
+    res = minimise(fun, jac, (H0 / scale).ravel(), tol=1e-13, max_nfev=400)
     H = res.x.reshape(3, 3) * scale
     J = res.jac
     dof = max(J.shape[0] - 9, 1)
     cov = np.linalg.pinv(J.T @ J) * max(float(res.fun @ res.fun) / dof, 1.0) * scale * scale
-    return H, cov, {"converged": bool(res.status > 0), "iterations": int(res.nfev), "rank": int(np.linalg.matrix_rank(J))}
+    return H, cov, {"converged": bool(res.success), "iterations": int(res.nfev), "rank": int(np.linalg.matrix_rank(J))}
 
 
 def turn_angle(H: np.ndarray, m: np.ndarray, axis: np.ndarray) -> float:

@@ -18,9 +18,9 @@ Follows imu_tk (Tedaldi et al., ICRA 2014), with our model `u = H (y - B)`:
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from rig.calibration.ellipsoid import fit_ellipsoid
+from rig.calibration.levenberg import minimise
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats, scalar_search
 from rig.calibration.result import TriadCalibration
 from rig.calibration.static_detect import detect_static_intervals, first_samples, initial_interval, long_intervals
@@ -112,7 +112,7 @@ def fit_accel_upper(chunks: list[np.ndarray], gravity: float) -> tuple[np.ndarra
         H[UPPER] = p[3:] * scale
         return gravity - np.linalg.norm((samples - p[:3]) @ H.T, axis=1)
 
-    res = least_squares(residual, np.concatenate([B0, H0[UPPER] / scale]), method="lm", xtol=1e-12, ftol=1e-12)
+    res = minimise(residual, None, np.concatenate([B0, H0[UPPER] / scale]), tol=1e-12)
     H = np.zeros((3, 3))
     H[UPPER] = res.x[3:] * scale
     return res.x[:3], H, float(0.5 * res.fun @ res.fun)
@@ -140,7 +140,7 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
         r = residuals(X.reshape(-1, 3, 3) * s, ms).reshape(10, -1)
         return ((r[1:] - r[0]) / step).T
 
-    res = least_squares(fun, np.eye(3).ravel(), jac=jac, method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    res = minimise(fun, jac, np.eye(3).ravel(), tol=1e-12)
     H = res.x.reshape(3, 3) * s
     r = res.fun
     cov = np.linalg.pinv(res.jac.T @ res.jac) * float(r @ r) / max(r.size - 9, 1) * s * s
@@ -151,7 +151,7 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
                         "check that the rests are still and the gyro is sampled with the accelerometer")
     return TriadCalibration(B=B, H=H, method="turntable-free-gyro (gravity direction across moves, imu_tk)",
                             residual_rms=rms, iterations=int(res.nfev),
-                            converged=bool(res.status > 0), H_std=np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(3, 3),
+                            converged=bool(res.success), H_std=np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(3, 3),
                             H_cov=cov, warnings=warnings,
                             extra={"moves": len(moves), "cost": float(0.5 * r @ r),
                                    "residual_unit": "unit gravity vector components"})

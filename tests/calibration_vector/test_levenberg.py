@@ -8,6 +8,7 @@ import pytest
 from scipy.optimize import least_squares
 
 import rig.calibration.joint as joint
+import rig.calibration.levenberg as levenberg
 from rig.calibration.levenberg import LMResult, levenberg_marquardt
 from vector_synth import accel_truth, mag_truth, random_rotations
 
@@ -111,7 +112,7 @@ def test_falls_back_to_scipy_when_ours_does_not_converge(monkeypatch):
         calls.append(1)
         return LMResult(x0, fun(x0), jac(x0), 0.0, 1, 1, False, "stub")
 
-    monkeypatch.setattr(joint, "levenberg_marquardt", failing)
+    monkeypatch.setattr(levenberg, "levenberg_marquardt", failing)
     fallback = joint.calibrate_joint(y, R, norm, y_std=y_std, counts=counts)
     assert calls and fallback.converged
     assert _rel(fallback.H, normal.H) < 1e-10
