@@ -3,6 +3,10 @@ measured session (the rig's own folder or an interchange one), named in the `eff
 
 A sensor the analysis could not test is said on the terminal, in the JSON (`skipped`, `not_analysed`) and in
 the report's summary, and the exit code is 1: "nothing missing" is only claimed of what was analysed.
+
+A recording without a turntable (no reference orientations) is compared with its simulated twin instead
+(procedures.twin_analysis): every statistic against the replicas' band, the noise and recording effects that
+explain what falls outside, and what stays unexplained (`twin` in the JSON, plots in the report folder).
 """
 
 from __future__ import annotations
@@ -26,7 +30,9 @@ SENSORS = ("accel", "gyro", "mag")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Folder for the residual-vs-covariate plots (before / after each finding) and a summary.")
 @click.option("--no-replay", is_flag=True, help="Skip replaying the schedule in the simulator.")
-def discrepancy(session_dir, json_out, report_dir, no_replay):
+@click.option("--replicas", type=click.IntRange(10, 1000), default=40, show_default=True,
+              help="Replicas of a recording's twin (recordings without a turntable).")
+def discrepancy(session_dir, json_out, report_dir, no_replay, replicas):
     """Fit the linear model, test every candidate effect, report the ones the data support."""
     from rig.commands.sessions import read_any_session
     from rig.discrepancy import analyze
@@ -39,6 +45,8 @@ def discrepancy(session_dir, json_out, report_dir, no_replay):
         click.echo(f"error: {plain(str(exc))}", err=True)
         sys.exit(Exit.BAD_INPUT)
     session.meta.setdefault("session", session_dir.name)
+    if session.meta.get("reference") == "none":
+        return _recording(session, session_dir, json_out, report_dir, replicas)
     try:
         with warnings.catch_warnings():       # overflow on absurd data is reported below, not as numpy noise
             warnings.simplefilter("ignore", RuntimeWarning)
@@ -78,6 +86,77 @@ def discrepancy(session_dir, json_out, report_dir, no_replay):
     click.echo(f"wrote {json_out}")
     if not_analysed:
         sys.exit(Exit.FAIL)
+
+
+def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | None, replicas: int) -> None:
+    """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
+    from procedures.twin_analysis import analyse_twin
+    from rig.errors import RigError
+    from rig.io.atomic import write_text_atomic
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            twin = analyse_twin(session, replicas=replicas)
+    except RigError as exc:
+        raise command_error(exc, prefix=f"{session_dir}: ") from None
+    except (ValueError, ArithmeticError) as exc:
+        raise CommandError(f"{session_dir}: the twin cannot be built from these data ({type(exc).__name__}: "
+                           f"{plain(str(exc))})") from None
+    findings = [{"effect": c["effect"], "sensor": c["sensor"], "magnitude": c["magnitude"], "unit": c["unit"],
+                 "uncertainty": None, "heldout_rms_before": None, "heldout_rms_after": None, "heldout_unit": None,
+                 "evidence": {"params": c["params"], "statistics_brought_back": c["brings_back"]}}
+                for c in twin["causes"] if c["brings_back"]]
+    summary = twin["summary"]
+    report = {"schema": "rig-discrepancy/1", "session": str(session.meta.get("session", session.source)),
+              "findings": findings,
+              "candidates": [{"effect": c["effect"], "sensor": c["sensor"], "score": float(len(c["brings_back"])),
+                              "significant": bool(c["brings_back"])} for c in twin["causes"]],
+              "unexplained": twin["unexplained"], "not_analysed": [], "twin": twin}
+    files = []
+    try:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(json_out, json.dumps(report, indent=2, default=_plain) + "\n")
+        if report_dir is not None:
+            from rig.report.twin_plots import write_twin_plots
+
+            files = write_twin_plots(twin, report_dir)
+            write_text_atomic(Path(report_dir) / "summary.md", twin_markdown(report, files))
+    except OSError as exc:
+        raise CommandError(f"{exc.filename or json_out}: cannot write the report: {exc.strerror}") from None
+    n = summary["statistics"]
+    click.echo(f"{session_dir}: a recording without a turntable, against its twin ({twin['replicas']} replicas)")
+    click.echo(f"statistics inside the replicas' 1-99 % band: {summary['inside_before']}/{n} "
+               f"({100 * summary['inside_before'] / n:.0f} %) with the simulator's white noise, "
+               f"{summary['inside_after']}/{n} ({100 * summary['inside_after'] / n:.0f} %) with what the recording shows")
+    for c in twin["causes"]:
+        back = len(c["brings_back"])
+        click.echo(f"{c['effect']} on {c['sensor']}: {c['magnitude']:.4g} {c['unit']}; brings back {back} "
+                   f"statistic{'s' if back != 1 else ''}")
+    if twin["unexplained"]:
+        click.echo(f"unexplained: {len(twin['unexplained'])} statistics stay outside the band (listed in {json_out})")
+    click.echo(f"wrote {json_out}" + (f" and {len(files)} plots in {report_dir}" if files else ""))
+
+
+def twin_markdown(report: dict, files: list[Path]) -> str:
+    twin = report["twin"]
+    s = twin["summary"]
+    n = s["statistics"]
+    lines = [f"# {report['session']} against its simulated twin", "",
+             f"{twin['replicas']} replicas: the recording's poses and motions replayed in the simulated world with its "
+             "own calibration and noise; a statistic outside the replicas' 1-99 % band is something the simulation "
+             "gets wrong.", "",
+             "| | inside the band |", "| --- | --- |",
+             f"| the simulator's white noise | {s['inside_before']}/{n} ({100 * s['inside_before'] / n:.0f} %) |",
+             f"| extended with what the recording shows | {s['inside_after']}/{n} ({100 * s['inside_after'] / n:.0f} %) |",
+             "", "## Named causes", "", "| effect | sensor | magnitude | statistics brought back |",
+             "| --- | --- | --- | --- |"]
+    lines += [f"| {c['effect']} | {c['sensor']} | {c['magnitude']:.4g} {c['unit']} | {len(c['brings_back'])} |"
+              for c in twin["causes"]] or ["| none | | | |"]
+    lines += ["", f"## Unexplained ({len(twin['unexplained'])})", ""]
+    lines += [f"- {name}" for name in twin["unexplained"]] or ["- none"]
+    lines += ["", "## Plots", ""] + [f"![{f.stem}]({f.name})" for f in files]
+    return "\n".join(lines) + "\n"
 
 
 def summary_markdown(report: dict, analysed: list[str], not_analysed: list[str]) -> str:
