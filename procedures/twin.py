@@ -20,6 +20,7 @@ import numpy as np
 
 from fixtures.world.model import Environment, SensorModel, World
 from fixtures.world.recorded import RecordedAttitude
+from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
 from rig.io.recording import recording_session
@@ -159,14 +160,14 @@ def bands(replicas: list[dict], lo: float = 1.0, hi: float = 99.0, min_share: fl
 
 
 def _white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) -> np.ndarray:
-    """Per-axis standard deviation pooled over the poses, in the raw units (what the simulator's white noise is)."""
-    var, dof = np.zeros(3), 0
-    for p in rec.poses:
-        v = _clean(session.raw[sensor][p.rows])
-        if len(v) > 1:
-            var += v.var(axis=0, ddof=1) * (len(v) - 1)
-            dof += len(v) - 1
-    return np.sqrt(var / max(dof, 1))
+    """Per-axis standard deviation of the noise ahead of the rounding (raw units), pooled over the poses: what the
+    simulator's white noise is. A recording in counts was rounded after its noise, and so is every replica, so the
+    rounding's own share is taken out here (quantisation.noise_sigma) rather than counted twice."""
+    stds = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses
+                     if len(_clean(session.raw[sensor][p.rows])) > 1])
+    if session.meta.get("units", {}).get(sensor, "counts") == "counts":
+        return noise_sigma(stds)
+    return np.sqrt(np.mean(stds ** 2, axis=0))
 
 
 def _rate(session: SessionData, rec: RecordingCalibration) -> np.ndarray:

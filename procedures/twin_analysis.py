@@ -30,7 +30,7 @@ def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replic
     base, failed = replica_statistics(replay, seeds)
     before = bands(base)
     off = outside(real, before)
-    causes = propose(view, rec, replay, real, before, off)
+    causes = propose(view, rec, replay, real, before, off, replicas)
     after, failed_after = before, 0
     if causes:
         quiet = tuple({q for c in causes for q in c.quiet})

@@ -42,8 +42,12 @@ _WITHIN_VARIANCE = _SIGMA_GRID ** 2 + QUANTISATION_STD ** 2 - np.concatenate(
 
 
 def noise_sigma(std: np.ndarray) -> np.ndarray:
-    """Gaussian noise sigma (counts) per axis from the observed stds (k, 3) of k holds of rounded samples."""
-    return np.interp(np.mean(np.square(std), axis=0), _WITHIN_VARIANCE, _SIGMA_GRID)
+    """Gaussian noise sigma (counts) per axis from the observed stds (k, 3) of k holds of rounded samples.
+
+    Beyond the table (sigma > 2 counts) the rounding bias is nil and the rounding adds its 1/12 (Sheppard)."""
+    variance = np.mean(np.square(std), axis=0)
+    return np.where(variance <= _WITHIN_VARIANCE[-1], np.interp(variance, _WITHIN_VARIANCE, _SIGMA_GRID),
+                    np.sqrt(np.maximum(variance - QUANTISATION_STD ** 2, 0.0)))
 
 
 def mean_standard_error(std: np.ndarray, count: np.ndarray) -> np.ndarray:
