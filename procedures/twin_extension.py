@@ -18,6 +18,7 @@ import numpy as np
 from fixtures.world.noise_effects import (BiasInstability, HoldNotStill, Quantisation, RateRandomWalk, Saturation,
                                           ShapedNoise)
 from procedures.twin import Replay
+from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
 from rig.noise.allan import allan_deviation, fit_noise
 from rig.noise.statistics import value_step
@@ -51,17 +52,33 @@ def outside(real: dict, bands: dict) -> set[str]:
     return out
 
 
+def off_families(real: dict, bands: dict, off: set[str], replicas: int, alpha: float = 0.01) -> set[str]:
+    """Families with more statistics outside the band than chance gives: with n replicas, a statistic the twin gets
+    right still falls outside their 1-99 % band with probability about 2/(n+1) (the band is estimated from them),
+    so a family of m statistics with k outside is off when the binomial tail P(X >= k) is below alpha."""
+    p = min(0.5, max(0.02, 2.0 / (replicas + 1)))
+    out = set()
+    for fam in {family(n) for n in off}:
+        m = sum(1 for n in real if n in bands and family(n) == fam)
+        k = sum(1 for n in off if family(n) == fam)
+        tail = sum(math.comb(m, j) * p ** j * (1 - p) ** (m - j) for j in range(k, m + 1))
+        if tail < alpha:
+            out.add(fam)
+    return out
+
+
 def family(name: str) -> str:
     """'gyro.adev.x@0.01s' -> 'gyro.adev'; 'accel.spread.y[x_p]' -> 'accel.spread'."""
     return ".".join(name.split("[")[0].split("@")[0].split(".")[:2])
 
 
 def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, real: dict, bands: dict,
-            off: set[str]) -> list[Cause]:
-    """The effects the real recording shows, each fitted from it, where a statistic it governs is out of band."""
+            off: set[str], replicas: int) -> list[Cause]:
+    """The effects the real recording shows, each fitted from it, where a family of statistics it governs is out of
+    band beyond chance (`off_families`)."""
     causes, floors = [], {}
     longest = max(rec.poses, key=lambda p: len(p.rows))
-    fams = {family(n) for n in off}
+    fams = off_families(real, bands, off, replicas)
     for sensor, model in replay.sensors.items():
         y = session.raw[sensor]
         scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT[sensor][1]       # reported unit per raw unit
@@ -85,8 +102,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
                                                                                         seed=seed * 7 + 1)],
                                 quiet=(sensor,)))
         mean_fam = f"{sensor}.hold_mean" if sensor == "gyro" else f"{sensor}.norm_residual"
-        scatter = [n for n in off if n.startswith(f"{sensor}.bias_scatter") or n.startswith(f"{sensor}.norm_scatter")]
-        if scatter or mean_fam in fams:
+        if {mean_fam, f"{sensor}.bias_scatter", f"{sensor}.norm_scatter"} & fams:
             sigma = _excess_scatter(real, bands, sensor, rec)
             if (sigma > 0).any():
                 centres = [float(np.mean(session.t[p.rows])) for p in rec.poses]
@@ -99,7 +115,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
                                                                                                seed=seed * 7 + 2)]))
         terms = fit_noise(allan_deviation(still[:, 0], replay.rate_hz))
         long_off = [n for n in off if n.startswith(f"{sensor}.adev") and _tau(n) >= 0.1 * len(still) / replay.rate_hz]
-        if long_off and terms.K > 0:
+        if f"{sensor}.adev" in fams and long_off and terms.K > 0:
             K = np.array([fit_noise(allan_deviation(still[:, k], replay.rate_hz)).K for k in range(3)])
             causes.append(Cause("rate_random_walk", sensor, float((K * scale).max()), unit + " per sqrt(s)",
                                 {"K": (K * scale).tolist()}, (f"{sensor}.adev", mean_fam, f"{sensor}.bias_scatter"),
@@ -171,9 +187,12 @@ def _excess(real: dict, bands: dict, rec: RecordingCalibration, sensor: str, pos
 
 def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
     """Per axis, the spread of the quieter poses (their lower quartile): the sensor's own noise, which the poses
-    where a hand shook cannot lower."""
+    where a hand shook cannot lower (ahead of the rounding, for a recording in counts, which replicas round again)."""
     spreads = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
-    return np.percentile(spreads, 25, axis=0)
+    quiet = np.percentile(spreads, 25, axis=0)
+    if session.meta.get("units", {}).get(sensor, "counts") == "counts":
+        return noise_sigma(quiet[None, :])
+    return quiet
 
 
 def spectral_taps(x: np.ndarray, rate_hz: float, length: int = 64) -> np.ndarray:
