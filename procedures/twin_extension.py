@@ -84,13 +84,21 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
         scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT[sensor][1]       # reported unit per raw unit
         unit = REPORT[sensor][0]
         still = _clean(y[longest.rows])
+        q = None
         if f"{sensor}.step" in fams and replay.units[sensor] != "counts":
             q = np.array([value_step(_clean(y)[:, k]) for k in range(3)])
-            causes.append(Cause("quantisation", sensor, float((q * scale).max()), unit, {"q": (q * scale).tolist()},
+        shaped = bool({f"{sensor}.adev", f"{sensor}.psd"} & fams)
+        if q is not None:
+            white = pooled_noise(session, rec, sensor, q)       # the noise ahead of the rounding the step implies
+            noise = [] if shaped else [lambda seed, s=sensor, w=white: ShapedNoise(s, taps=np.ones((3, 1)), std=w,
+                                                                                  seed=seed * 7 + 6)]
+            causes.append(Cause("quantisation", sensor, float((q * scale).max()), unit,
+                                {"q": (q * scale).tolist(), "noise_ahead_of_rounding_raw": white.tolist()},
                                 (f"{sensor}.step", f"{sensor}.adev", f"{sensor}.psd", f"{sensor}.spread"),
-                                lambda seed, s=sensor, q=q: [Quantisation(s, q=q)]))
-        if {f"{sensor}.adev", f"{sensor}.psd"} & fams:
-            std = quiet_noise(session, rec, sensor)
+                                lambda seed, s=sensor, q=q, noise=noise: [f(seed) for f in noise] + [Quantisation(s, q=q)],
+                                quiet=() if shaped else (sensor,)))
+        if shaped:
+            std = quiet_noise(session, rec, sensor, q)
             floors[sensor] = std
             taps = np.array([spectral_taps(still[:, k], replay.rate_hz) for k in range(3)])
             effect = ShapedNoise(sensor, taps=taps, std=std)
@@ -185,14 +193,30 @@ def _excess(real: dict, bands: dict, rec: RecordingCalibration, sensor: str, pos
     return total
 
 
-def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
+def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None = None) -> np.ndarray:
     """Per axis, the spread of the quieter poses (their lower quartile): the sensor's own noise, which the poses
-    where a hand shook cannot lower (ahead of the rounding, for a recording in counts, which replicas round again)."""
+    where a hand shook cannot lower; ahead of the rounding (counts, or the step `q` of a quantised recording)."""
     spreads = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
-    quiet = np.percentile(spreads, 25, axis=0)
-    if session.meta.get("units", {}).get(sensor, "counts") == "counts":
-        return noise_sigma(quiet[None, :])
-    return quiet
+    return _ahead_of_rounding(session, sensor, np.percentile(spreads, 25, axis=0), q)
+
+
+def pooled_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None) -> np.ndarray:
+    """Per axis, the noise pooled over the poses, ahead of the rounding."""
+    spreads = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
+    return _ahead_of_rounding(session, sensor, np.sqrt(np.mean(spreads ** 2, axis=0)), q)
+
+
+def _ahead_of_rounding(session: SessionData, sensor: str, spread: np.ndarray, q: np.ndarray | None) -> np.ndarray:
+    """The Gaussian noise that, rounded to the step (1 count, or `q`), shows `spread` (quantisation.noise_sigma)."""
+    if q is None and session.meta.get("units", {}).get(sensor, "counts") == "counts":
+        q = np.ones(3)
+    if q is None:
+        return spread
+    q = np.where(q > 0, q, 1.0)
+    sigma = noise_sigma((spread / q)[None, :]) * q
+    # where the noise does not dither the step (spread below half a step), the spread of a pose depends on where
+    # its value sits on the grid, and inverting it is ill-posed: the spread itself is the better guess
+    return np.where(spread >= 0.5 * q, sigma, spread)
 
 
 def spectral_taps(x: np.ndarray, rate_hz: float, length: int = 64) -> np.ndarray:

@@ -103,13 +103,17 @@ def value_step(x: np.ndarray) -> float:
 
 
 def pinned_fraction(x: np.ndarray) -> float:
-    """Share of samples sitting exactly at the stream's smallest or largest value (a clipped output piles up
-    there; an unclipped one has a handful at most)."""
+    """Share of samples piled at the stream's smallest or largest value: a clipped output piles up at its rail,
+    more there than at the value next to it; an unclipped one thins out towards its extremes (as
+    pipeline.screening reads rails)."""
     x = x[np.isfinite(x)]
-    if x.size == 0:
+    if x.size < 3:
         return 0.0
-    at = np.count_nonzero(x == x.max()) + np.count_nonzero(x == x.min())
-    return float(at / x.size) if at > 2 else 0.0
+    u, n = np.unique(x, return_counts=True)
+    if len(u) < 3:
+        return 0.0
+    piled = (n[0] if n[0] > n[1] and n[0] > 2 else 0) + (n[-1] if n[-1] > n[-2] and n[-1] > 2 else 0)
+    return float(piled / x.size)
 
 
 def loo_scatter_ratio(session: SessionData, rec: RecordingCalibration) -> float | None:
