@@ -91,7 +91,7 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None) 
         sensors["mag"] = _vector_fit(session, "mag", use_poses, float(session.field_uT))
     carries = _carries(session, poses)
     if "gyro" in session.raw:
-        sensors["gyro"], used = _gyro_fit(session, sensors["accel"], poses, turns, carries, leave_out)
+        sensors["gyro"], used = fit_gyro(session, sensors["accel"], poses, turns, carries, leave_out)
         if not used["turns"] and not used["carries"]:
             warnings.append("gyro: no turn of known angle and no whole motion between poses")
     return RecordingCalibration(sensors, poses, turns, carries, warnings)
@@ -164,7 +164,7 @@ def _carries(session: SessionData, poses: list[Pose]) -> list[tuple[int, int]]:
     return out
 
 
-def _gyro_fit(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list[Turn],
+def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list[Turn],
               carries: list[tuple[int, int]], leave_out: dict) -> tuple[TriadCalibration, dict]:
     y = session.raw["gyro"]
     stills = np.concatenate([p.rows for p in poses])

@@ -107,7 +107,7 @@ def test_discrepancy_says_which_sensors_it_could_not_analyse(rig_session, tmp_pa
     assert "**Not analysed: accel, mag**" in (tmp_path / "r" / "summary.md").read_text()
 
 
-def test_absurd_numbers_that_pass_the_reader_do_not_crash_a_command(rig_session, tmp_path):
+def test_an_implausible_number_is_refused_by_name_and_a_wild_plausible_one_does_not_crash(rig_session, tmp_path):
     from rig.commands.sessions import read_any_session
     from rig.io.session_csv import write_session
 
@@ -116,10 +116,16 @@ def test_absurd_numbers_that_pass_the_reader_do_not_crash_a_command(rig_session,
     s.temp_c[100] = 1e308
     write_session(s, tmp_path / "big")
     res = rig("discrepancy", str(tmp_path / "big"), "--json", str(tmp_path / "b.json"), "--no-replay")
+    clean(res, 2)
+    assert "samples.csv, line 102, column 'temp_c'" in res.stderr and "plausible range" in res.stderr
+
+    s.temp_c[100] = 249.0
+    write_session(s, tmp_path / "hot")
+    res = rig("discrepancy", str(tmp_path / "hot"), "--json", str(tmp_path / "h.json"), "--no-replay")
     assert res.returncode in (0, 1, 3), res.stderr
     clean(res, res.returncode)
     assert "RuntimeWarning" not in res.stderr
-    res = rig("calibrate", "--from", str(tmp_path / "big"), "--out", str(tmp_path / "cal"))
+    res = rig("calibrate", "--from", str(tmp_path / "hot"), "--out", str(tmp_path / "cal"))
     assert res.returncode in (0, 3), res.stderr
     clean(res, res.returncode)
 
