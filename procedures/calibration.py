@@ -1,7 +1,9 @@
 """The calibration session: move, verify arrival and settle, hold and record, repeat; moves recorded too.
 
 Every hold is committed to the store in its own transaction before the table moves on, so a crash loses
-at most the hold in progress, and `resume` continues from the next orientation. The table is always
+at most the hold in progress, and `resume` continues from the next orientation. Before a hold is stored the
+chips' configuration registers are read back: a chip that reset to its power-on registers (a brown-out) is
+configured again and the step redone, so no sample it gave unconfigured is stored. The table is always
 left safe (stopped, disabled) whatever happens, by the caller's `finally` around `run_session`.
 """
 
@@ -12,11 +14,13 @@ from typing import Callable
 
 import numpy as np
 
+from drivers.contract import KeepsConfiguration
 from procedures.acquisition import Recording, Sampler, hold_has_motion, log_outliers, log_read_errors
 from procedures.planning import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles
 from rig.clock import Clock
+from rig.errors import RigError
 from rig.rotations import TableGeometry, quat_from_matrix
 
 Progress = Callable[[int, int, str], None]
@@ -39,7 +43,7 @@ class MotionSettings:
 HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdog, cheap on the bus
 
 
-class HoldFailed(RuntimeError):
+class HoldFailed(RigError, RuntimeError):
     """A hold kept moving in every allowed attempt: the table or its surroundings are not still."""
 
 
@@ -74,17 +78,58 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     position_table(table, clock, schedule[start_step], m)
     sampler = Sampler(board, clock, m.rate_hz, m.mag_every, session_t0=session_t0)
     sampler.align_to("gyro")
-    for j in range(start_step, n):
-        if j > start_step:
+    j, first, redone = start_step, start_step, {}
+    while j < n:
+        try:
+            if j > first:
+                if progress:
+                    progress(j, n, "move")
+                _record_move(table, sampler, store, geometry, schedule[j], j - 1, m)
             if progress:
-                progress(j, n, "move")
-            _record_move(table, sampler, store, geometry, schedule[j], j - 1, m)
-        if progress:
-            progress(j, n, "hold")
-        _record_hold(table, sampler, store, geometry, schedule[j], j, m)
+                progress(j, n, "hold")
+            _record_hold(table, sampler, board, store, geometry, schedule[j], j, m)
+            j += 1
+        except ConfigurationLost as lost:
+            redone[j] = redone.get(j, 0) + 1
+            if redone[j] >= m.max_hold_attempts:
+                lost.add_note(f"hold {j}: a chip lost its configuration in {redone[j]} attempts; it keeps resetting")
+                raise
+            j = _redo_after_reset(table, board, store, sampler, schedule, j, first, lost, m)
+            first = j
     if progress:
         progress(n, n, "done")
-    return {"ticks": sampler._k, "late_reads": sampler.late_reads, "skipped_ticks": sampler.skipped_ticks}
+    return {"ticks": sampler._k, "late_reads": sampler.late_reads, "skipped_ticks": sampler.skipped_ticks,
+            "chip_resets": sum(redone.values())}
+
+
+class ConfigurationLost(RigError):
+    """A chip no longer holds its configuration (a power-on reset mid-session); `parts` lost it."""
+
+    def __init__(self, parts: list, messages: list[str]) -> None:
+        self.parts = parts
+        super().__init__("; ".join(messages))
+
+
+def check_configuration(board: Board) -> None:
+    """Raise ConfigurationLost if a part reset to its power-on registers since it was started."""
+    lost = [(part, part.configuration_lost()) for part in board.parts if isinstance(part, KeepsConfiguration)]
+    lost = [(part, why) for part, why in lost if why is not None]
+    if lost:
+        raise ConfigurationLost([part for part, _ in lost], [why for _, why in lost])
+
+
+def _redo_after_reset(table: Table, board: Board, store: Store, sampler: Sampler, schedule: list[Orientation],
+                      j: int, first: int, lost: ConfigurationLost, m: MotionSettings) -> int:
+    """A chip reset since hold j-1 was checked and stored: configure it again and redo the step, from hold j-1
+    held again (so the move into hold j is recorded again, whole, from a hold of its own). Returns the step
+    to record from. Nothing of the spoiled move or hold is stored."""
+    for part in lost.parts:
+        part.start()
+    back = j - 1 if j > first else j
+    position_table(table, sampler.clock, schedule[back], m)
+    store.redo(sampler.stamp(sampler.clock.now()), f"chip reset before hold {j} was stored: {lost}; configured "
+               f"again, " + (f"step {j} redone from hold {back} held again" if back < j else f"hold {j} redone"))
+    return back
 
 
 def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
@@ -109,8 +154,8 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
     log_read_errors(store, sampler)
 
 
-def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
-                 step: int, m: MotionSettings) -> Recording:
+def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geometry: TableGeometry,
+                 target: Orientation, step: int, m: MotionSettings) -> Recording:
     ticks = int(round(m.hold_s * m.rate_hz))
     chunk = max(int(round(HOLD_POLL_S * m.rate_hz)), 1)
     for attempt in range(1, m.max_hold_attempts + 1):
@@ -119,6 +164,7 @@ def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGe
             sampler.run(min(chunk, ticks - k))
             readings.append(table.positions())      # encoder log, and a keep-alive for the table's watchdog
         rec = sampler.take()
+        check_configuration(board)
         moved = hold_has_motion(rec, rate_hz=m.rate_hz)
         drift = float(np.ptp(np.asarray(readings), axis=0).max())
         if drift > m.tolerance_deg:

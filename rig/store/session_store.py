@@ -27,7 +27,7 @@ import numpy as np
 from rig.errors import InputError, RigError
 from rig.session_data import SessionData
 from rig.store import arrays
-from rig.store.assemble import RESUME_EVENT, assemble_session, resume_times
+from rig.store.assemble import REDO_EVENT, RESUME_EVENT, assemble_session, resume_times
 from rig.store.schema import APPLICATION_ID, DDL, FORMAT, LAYOUT_VERSION, SESSION_FILE
 from rig.store.segment import checked_arrays, hold_stat_rows
 
@@ -216,6 +216,15 @@ class SessionStore:
             raise ValueError(f"{where}: t starts at {float(data['t'][0])!r} s, before the end of the last committed "
                              f"segment ({last!r} s); session time must not run backwards")
         self._pending_move = (int(step), data)
+
+    def redo(self, t: float, reason: str) -> None:
+        """The procedure redoes a step from session time `t`, holding again at the last stored hold: the move
+        appended last (not committed with a hold) is forgotten, and the visit from `t` is kept beside the first
+        one like a resumed run's (see `rig.store.assemble`). No clock gap: moves recorded from `t` are whole."""
+        self._pending_move = None
+        with self._transaction() as db:
+            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
+                       (float(t), REDO_EVENT, reason, _utc_now()))
 
     def log_event(self, kind: str, message: str, t: float | None = None) -> None:
         with self._transaction() as db:
