@@ -288,7 +288,7 @@ def _added(before: dict | None, stats: dict) -> dict:
 
 
 SURVIVED = {"read-error": "read error(s) (empty cells)", "hold-repeated": "hold(s) repeated (motion)",
-            "redo": "step(s) redone (a chip reset)", "resume": "interruption(s) resumed"}
+            "redo": "step(s) redone (a knock, a chip reset, a gap in a move)", "resume": "interruption(s) resumed"}
 
 
 def survived(store: SessionStore) -> list[str]:
