@@ -17,7 +17,8 @@ every run against the table in README "Exit codes", the status it stored and wha
 produce), tracebacks seen (stdout, stderr, rig-error.log), every fault fired either survived or reported, and
 the H error of each sensor against the same unit's uninterrupted session (the twin, same seed). Beside it the
 spread of twin against twin with another noise trial (--twin-trials), since a fault or an interruption
-changes the noise realisation even where it changes nothing else.
+changes the noise realisation even where it changes nothing else. (`benchmarks/resume_twins.py` does the
+same comparison in one process, for kills at chosen sensor reads, with no other fault.)
 
     python benchmarks/fault_campaign.py --sessions 200 [--units 40] [--orientations 12] [--seed 0] [--workers 2]
 """
@@ -44,6 +45,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from resume_twins import h_errors  # noqa: E402  (the same H error as the in-process resume benchmark)
 
 KINDS = ("modbus_drop", "modbus_delay", "modbus_exception", "turntable_restart", "kill", "disk_full", "i2c_nack",
          "adxrs453_parity", "adxrs453_fault", "chip_reset", "bump")
@@ -365,13 +369,6 @@ def strip(run: dict) -> dict:
     """A run as reported: its outcome, and the last lines it printed on stderr."""
     tail = [line for line in run["stderr"].splitlines() if line.strip() and not line.startswith(">>>>>")][-3:]
     return {k: v for k, v in run.items() if k not in ("stdout", "stderr")} | {"stderr_tail": tail}
-
-
-def h_errors(folder: Path) -> dict[str, float]:
-    cal = json.loads((folder / "calibration.json").read_text())["sensors"]
-    truth = json.loads((folder / "truth.json").read_text())["sensors"]
-    return {s: float(np.linalg.norm(np.array(cal[s]["H"]) - np.array(truth[s]["H"])) / np.linalg.norm(truth[s]["H"]))
-            for s in cal}
 
 
 # -- twins -----------------------------------------------------------------------------------------------------
