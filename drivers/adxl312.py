@@ -11,7 +11,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, SpiRegisters, check_not_floating, choose, spi_label
-from drivers.contract import DataReady, Placement, Sensor, Wiring
+from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Wiring
 from drivers.errors import FifoOverrun, SensorFault, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit, ROBits, RWBit, RWBits
 from drivers.units import STANDARD_GRAVITY
@@ -65,7 +65,7 @@ SPI_MAX_HZ = 5_000_000
 _XYZ = struct.Struct("<HHH")
 
 
-class ADXL312(Sensor, DataReady):
+class ADXL312(Sensor, DataReady, KeepsConfiguration):
     """ADXL312 in full-resolution mode; `bus` is an smbus2.SMBus-like object or, if it has `xfer2`, a SpiDev.
 
     Full resolution keeps 2.9 mg/LSB in every range, so only the number of valid bits (10..13) changes with
@@ -113,6 +113,10 @@ class ADXL312(Sensor, DataReady):
         self.sleep(1.0 / self.rate_hz + 1.1e-3)  # turn-on time tau + 1.1 ms (datasheet p.4 note 5)
         self._discard_first_sample()
         self.started = True
+
+    def configuration_lost(self) -> str | None:
+        """The first configuration register that no longer reads what start() wrote (a power-on reset), or None."""
+        return self.regs.lost()
 
     def _discard_first_sample(self) -> None:
         """Wait for DATA_READY and drop that sample: the turn-on time is only typical (no maximum is given),

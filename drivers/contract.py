@@ -7,6 +7,7 @@ Optional abilities are declared by inheriting a capability class, so the sampler
 - `DataReady`: a flag that says an unread sample is waiting (the sampler waits on it and aligns its ticks).
 - `Thermometer`: a die temperature (the board's temperature column).
 - `SupplyMonitor`: the sensor supply voltage.
+- `KeepsConfiguration`: registers written at start that a power-on reset would lose (the procedure checks them).
 
 A part is built from its `Placement` (where it sits, declared as data in a board) and a `Wiring` (the open
 buses of this rig, real or fake) by its class method `attach`; a chip family registers its classes in
@@ -106,6 +107,13 @@ class DataReady(ABC):
     @abstractmethod
     def data_ready(self) -> bool:
         """True while an unread sample is waiting."""
+
+
+class KeepsConfiguration(ABC):
+    @abstractmethod
+    def configuration_lost(self) -> str | None:
+        """What of the configuration written at start the chip no longer holds (it reset to its power-on
+        registers: a brown-out, ESD), or None. A register read or two: cheap enough once per hold."""
 
 
 class Thermometer(ABC):

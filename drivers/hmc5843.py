@@ -11,7 +11,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, choose
-from drivers.contract import DataReady, Placement, Sensor, Wiring
+from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Wiring
 from drivers.errors import SensorFault, SensorSaturated, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit, RWBits
 
@@ -52,7 +52,7 @@ READY_POLLS, READY_POLL_S = 150, 0.02  # kernel: 150 polls of STATUS.RDY, 20 ms 
 _XYZ = struct.Struct(">hhh")
 
 
-class HMC5843(Sensor, DataReady):
+class HMC5843(Sensor, DataReady, KeepsConfiguration):
     """HMC5843 in continuous mode. `gain` is in LSB per gauss (kernel table), `rate_hz` the DO output rate."""
 
     chip = "HMC5843"
@@ -78,6 +78,10 @@ class HMC5843(Sensor, DataReady):
         regs.put(R.MODE, mode=MODE_CONTINUOUS)
         self._settle()
         self.started = True
+
+    def configuration_lost(self) -> str | None:
+        """The first configuration register that no longer reads what start() wrote (a power-on reset), or None."""
+        return self.regs.lost()
 
     def _settle(self) -> None:
         """Wait on time, not on RDY, until a sample converted with the new settings is in the registers.

@@ -13,7 +13,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, choose
-from drivers.contract import DataReady, Placement, Sensor, Thermometer, Wiring
+from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Thermometer, Wiring
 from drivers.errors import SensorFault, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit, RWBit, RWBits
 
@@ -74,7 +74,7 @@ def exact_rates(dlpf_hz: int) -> dict[float, int]:
     return {internal // (d + 1): d for d in range(256) if internal % (d + 1) == 0}
 
 
-class ITG3200(Sensor, DataReady, Thermometer):
+class ITG3200(Sensor, DataReady, Thermometer, KeepsConfiguration):
     """ITG-3200 at +-2000 deg/s with the PLL on the X gyro as clock.
 
     INT_CFG latches the interrupt and lets any read clear it: a polled or level-triggered host never misses the
@@ -118,6 +118,10 @@ class ITG3200(Sensor, DataReady, Thermometer):
             raise SensorFault(f"{regs.where(R.DLPF_FS)}: read back 0x{dlpf_fs:02X}, wrote 0x{wrote:02X}")
         self._discard_first_sample()
         self.started = True
+
+    def configuration_lost(self) -> str | None:
+        """The first configuration register that no longer reads what start() wrote (a power-on reset), or None."""
+        return self.regs.lost()
 
     def _discard_first_sample(self) -> None:
         """Wait for RAW_DATA_RDY and drop that sample.

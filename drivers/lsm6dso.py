@@ -19,7 +19,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, StSpiRegisters, check_not_floating, choose, spi_label
-from drivers.contract import DataReady, Part, Placement, Sensor, Thermometer, Wiring
+from drivers.contract import DataReady, KeepsConfiguration, Part, Placement, Sensor, Thermometer, Wiring
 from drivers.errors import FifoOverrun, SensorFault, WrongIdentity
 from drivers.regmap import RegisterMap, Reg, ROBit, ROBits, RWBit, RWBits
 from drivers.units import STANDARD_GRAVITY
@@ -84,7 +84,7 @@ SPI_MODE, SPI_MAX_HZ = 3, 10_000_000
 _XYZ = struct.Struct("<hhh")
 
 
-class LSM6DSFamily(Part, Thermometer):
+class LSM6DSFamily(Part, Thermometer, KeepsConfiguration):
     """Accelerometer + gyroscope at one output rate, both batched into the FIFO in continuous mode.
 
     `accel` and `gyro` are the two sensor views a board reads; the chip itself is the part that is started.
@@ -136,6 +136,10 @@ class LSM6DSFamily(Part, Thermometer):
         self._pending = {TAG_ACCEL: [], TAG_GYRO: []}
         self._wait_first_samples()
         self.started = True
+
+    def configuration_lost(self) -> str | None:
+        """The first configuration register that no longer reads what start() wrote (a power-on reset), or None."""
+        return self.regs.lost()
 
     def _wait_first_samples(self) -> None:
         period = 1.0 / self.odr_hz

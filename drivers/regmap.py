@@ -108,12 +108,23 @@ class RegisterMap:
 
     def __init__(self, io: Any) -> None:
         self.io = io
+        self.configured: dict[int, int] = {}     # register -> the value last written to it
 
     def read(self, reg: Reg | int) -> int:
         return self.io.read(int(reg))
 
     def write(self, reg: Reg | int, value: int) -> None:
         self.io.write(int(reg), value)
+        self.configured[int(reg)] = value
+
+    def lost(self) -> str | None:
+        """The first register that no longer holds what was last written to it (the chip reset to its power-on
+        values: a brown-out, ESD), said with its address and both values; None while the chip keeps them all."""
+        for address, value in self.configured.items():
+            now = self.read(address)
+            if now != value:
+                return f"{self.where(address)} reads 0x{now:02X}, configured 0x{value:02X}"
+        return None
 
     def read_block(self, reg: Reg | int, length: int) -> bytes:
         return self.io.read_block(int(reg), length)

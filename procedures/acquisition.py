@@ -17,6 +17,8 @@ from procedures.protocols import Board
 from rig.clock import Clock, sleep_until
 from rig.outliers import OUTLIER_SIGMAS, isolated_outliers
 
+ABSENT_LIMIT_S = 1.0    # a sensor with no valid sample this long is gone (a cable, a dead chip), not glitching
+
 
 @dataclass
 class Recording:
@@ -39,6 +41,7 @@ class Sampler:
     late_reads: int = 0
     skipped_ticks: int = 0
     read_errors: list = field(default_factory=list)
+    _last_good: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.dt = 1.0 / self.rate_hz
@@ -57,12 +60,14 @@ class Sampler:
     def tick(self) -> None:
         """Wait for the next grid time and read every sensor due; stamped with the clock time of the reads.
 
-        A loop that fell more than a tick behind (a slow bus, a busy host) skips the missed ticks rather
-        than bursting through them with made-up times; they are counted in `skipped_ticks`.
+        A loop that fell half a tick or more behind (a slow bus, a busy host, a retried table request) skips
+        the missed ticks rather than bursting through them with made-up times or stamping two reads of one
+        sample a moment apart; they are counted in `skipped_ticks`.
         """
         t = self.t0 + self._k * self.dt
-        behind = int((self.clock.now() - t) / self.dt)
-        if behind >= 1:
+        late = self.clock.now() - t
+        if late >= self.dt / 2:       # read now, and the next tick would come less than half a period later
+            behind = int((late - self.dt / 2) // self.dt) + 1
             self._k += behind
             self.skipped_ticks += behind
             t = self.t0 + self._k * self.dt
@@ -85,14 +90,22 @@ class Sampler:
         self._k += 1
 
     def _read(self, name: str, stamp: float):
-        """One read, retried once: a single bus glitch or saturated sample becomes an empty cell and a logged
-        error, not the end of a session."""
+        """One read, retried once: a bus glitch (a NACK burst, a parity error) or a saturated sample becomes an
+        empty cell and a logged error, not the end of a session; a sensor with no valid sample for
+        ABSENT_LIMIT_S is gone, and its last error ends the session (with how long it has been silent)."""
         for attempt in (1, 2):
             try:
-                return self.board.triads[name].read_raw()
+                value = self.board.triads[name].read_raw()
             except DriverError as e:
                 if attempt == 2:
                     self.read_errors.append((stamp, f"{name}: {e}"))
+                    silent = stamp - self._last_good.setdefault(name, stamp)
+                    if silent >= ABSENT_LIMIT_S:
+                        e.add_note(f"{name}: no valid sample for {silent:.2f} s")
+                        raise
+            else:
+                self._last_good[name] = stamp
+                return value
         return (np.nan, np.nan, np.nan)
 
     def _aux(self, read, stamp: float):
@@ -103,13 +116,18 @@ class Sampler:
             return None
 
     def _wait_ready(self, name: str) -> None:
+        """Wait (briefly) for the sensor's data-ready flag; a flag that cannot be read is left to the read that
+        follows, which retries and records the error."""
         ready = self._ready[name]
         if ready is None:
             return
-        for _ in range(4):
-            if ready():
-                return
-            self.clock.sleep(self.dt / 8)
+        try:
+            for _ in range(4):
+                if ready():
+                    return
+                self.clock.sleep(self.dt / 8)
+        except DriverError:
+            return
         self.late_reads += 1
 
     def align_to(self, name: str, margin_s: float = 0.0) -> bool:

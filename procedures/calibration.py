@@ -1,8 +1,12 @@
 """The calibration session: move, verify arrival and settle, hold and record, repeat; moves recorded too.
 
 Every hold is committed to the store in its own transaction before the table moves on, so a crash loses
-at most the hold in progress, and `resume` continues from the next orientation. The table is always
-left safe (stopped, disabled) whatever happens, by the caller's `finally` around `run_session`.
+at most the hold in progress, and `resume` continues from the next orientation. A step whose data cannot be
+used as recorded is redone rather than stored or dropped: a hold that moved (a knock), a chip that reset to its
+power-on registers (its configuration is read back before each hold is stored; it is configured again), a gyro
+stream with a hole in the move (a read error, a retried table request). The rig goes back to the previous
+orientation, holds there again and records the move and the hold again, so the gyro keeps every move whole.
+The table is always left safe (stopped, disabled) whatever happens, by the caller's `finally`.
 """
 
 from __future__ import annotations
@@ -12,11 +16,14 @@ from typing import Callable
 
 import numpy as np
 
+from drivers.contract import KeepsConfiguration
+from drivers.errors import DriverError
 from procedures.acquisition import Recording, Sampler, hold_has_motion, log_outliers, log_read_errors
 from procedures.planning import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles
 from rig.clock import Clock
+from rig.errors import RigError
 from rig.rotations import TableGeometry, quat_from_matrix
 
 Progress = Callable[[int, int, str], None]
@@ -39,7 +46,7 @@ class MotionSettings:
 HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdog, cheap on the bus
 
 
-class HoldFailed(RuntimeError):
+class HoldFailed(RigError, RuntimeError):
     """A hold kept moving in every allowed attempt: the table or its surroundings are not still."""
 
 
@@ -74,21 +81,93 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     position_table(table, clock, schedule[start_step], m)
     sampler = Sampler(board, clock, m.rate_hz, m.mag_every, session_t0=session_t0)
     sampler.align_to("gyro")
-    for j in range(start_step, n):
-        if j > start_step:
+    j, first, tries = start_step, start_step, {}
+    while j < n:
+        attempt = tries.get(j, 0) + 1
+        try:
+            if j > first:
+                if progress:
+                    progress(j, n, "move")
+                _record_move(table, sampler, store, geometry, schedule[j], j - 1, m,
+                             strict=attempt < m.max_hold_attempts)
             if progress:
-                progress(j, n, "move")
-            _record_move(table, sampler, store, geometry, schedule[j], j - 1, m)
-        if progress:
-            progress(j, n, "hold")
-        _record_hold(table, sampler, store, geometry, schedule[j], j, m)
+                progress(j, n, "hold")
+            _record_hold(table, sampler, board, store, geometry, schedule[j], j, m, attempt)
+            j += 1
+        except StepSpoiled as spoiled:
+            tries[j] = attempt
+            if attempt >= m.max_hold_attempts:
+                raise spoiled.final(j, attempt) from None
+            j = _redo(table, store, sampler, schedule, j, first, spoiled, m)
+            first = j
     if progress:
         progress(n, n, "done")
-    return {"ticks": sampler._k, "late_reads": sampler.late_reads, "skipped_ticks": sampler.skipped_ticks}
+    return {"ticks": sampler._k, "late_reads": sampler.late_reads, "skipped_ticks": sampler.skipped_ticks,
+            "steps_redone": sum(tries.values())}
+
+
+class StepSpoiled(RigError):
+    """The move into hold j or hold j cannot be used as recorded (the hold moved, a chip lost its configuration,
+    the gyro missed part of the move): the step is redone. `restart`: chips to configure again first."""
+
+    def __init__(self, message: str, restart: list | None = None) -> None:
+        self.restart = list(restart or [])
+        super().__init__(message)
+
+    def final(self, step: int, attempts: int) -> RigError:
+        """What to raise when the step was spoiled in every allowed attempt."""
+        return ConfigurationLost(f"{self}; hold {step}: the same in all {attempts} attempts, the chip keeps "
+                                 "resetting")
+
+
+class HoldMoved(StepSpoiled):
+    def final(self, step: int, attempts: int) -> RigError:
+        return HoldFailed(f"hold {step} kept moving in all {attempts} attempts (see the session's hold-repeated "
+                          f"events); nothing of it was stored, so `rig resume` retries it")
+
+
+class ConfigurationLost(RigError):
+    """A chip keeps losing its configuration (or it cannot be read back): the session cannot go on."""
+
+
+def check_configuration(board: Board) -> None:
+    """Raise StepSpoiled if a part reset to its power-on registers since it was started (or if its registers
+    cannot be read back now: a bus glitch or a reset, the step is not trusted either way)."""
+    lost, messages = [], []
+    for part in board.parts:
+        if not isinstance(part, KeepsConfiguration):
+            continue
+        try:
+            why = part.configuration_lost()
+        except DriverError as exc:
+            messages.append(f"its configuration could not be read back: {exc}")
+            continue
+        if why is not None:
+            lost.append(part)
+            messages.append(why)
+    if messages:
+        raise StepSpoiled("; ".join(messages) + ("; configured again" if lost else ""), restart=lost)
+
+
+def _redo(table: Table, store: Store, sampler: Sampler, schedule: list[Orientation], j: int, first: int,
+          spoiled: StepSpoiled, m: MotionSettings) -> int:
+    """Redo step j: configure again the chips that lost their configuration, and record again from hold j-1
+    held again, so the move into hold j is recorded whole, from a hold of its own (the first hold of a run
+    is simply held again). Nothing of the spoiled move or hold is stored. Returns the step to record from."""
+    for part in spoiled.restart:
+        part.start()
+    if j == first:
+        return j
+    position_table(table, sampler.clock, schedule[j - 1], m)
+    store.redo(sampler.stamp(sampler.clock.now()), f"before hold {j} was stored: {spoiled}; step {j} redone "
+               f"from hold {j - 1} held again")
+    return j - 1
 
 
 def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
-                 step: int, m: MotionSettings) -> None:
+                 step: int, m: MotionSettings, strict: bool = True) -> None:
+    """Record the move leaving hold `step`. `strict`: a move whose gyro stream has a hole while the table turns
+    (a read error, a retried table request: `gyro_hole`) spoils the step."""
     t_pos, pos, vel = [sampler.stamp(sampler.clock.now())], [table.positions()], [(0.0, 0.0)]
 
     def log_polls(statuses: list) -> None:
@@ -104,35 +183,58 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
     pos.append(table.positions())
     vel.append((0.0, 0.0))
     table_deg = interpolate_angles(rec.t, t_pos, pos, vel)
+    log_read_errors(store, sampler)
+    hole = gyro_hole(rec, table_deg, 1.0 / m.rate_hz, m.tolerance_deg)
+    if strict and hole is not None:
+        raise StepSpoiled(f"the gyro has no samples for {hole[0]:.3f} s of the move into hold {step + 1} while the "
+                          f"table turned {hole[1]:.2f} deg (read errors or a retried table request)")
     store.append_move(step, t=rec.t, samples=rec.samples, q_ref=quat_from_matrix(geometry.rotation(*table_deg.T)),
                       table_deg=table_deg, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v)
-    log_read_errors(store, sampler)
 
 
-def _record_hold(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
-                 step: int, m: MotionSettings) -> Recording:
+def gyro_hole(rec: Recording, table_deg: np.ndarray, dt: float, tolerance_deg: float) -> tuple[float, float] | None:
+    """(seconds, degrees) of the worst hole in a move's gyro stream, counted from the hold it leaves to the hold
+    it reaches, across which the table turned more than `tolerance_deg`; None if there is none.
+
+    No interpolation knows the rate inside a hole: where the rate profile has a corner in it (the start or end
+    of a turn, usually) the move's angle is off by up to a/8 h^2, at 360 deg/s^2 and 0.05 s already 0.1 deg."""
+    if "gyro" not in rec.samples or rec.t.size == 0:
+        return None
+    have = np.flatnonzero(~np.isnan(rec.samples["gyro"]).any(axis=1))
+    t = np.concatenate([[rec.t[0] - dt], rec.t[have], [rec.t[-1] + dt]])
+    angles = np.vstack([table_deg[:1], table_deg[have], table_deg[-1:]])
+    gaps, turned = np.diff(t), np.linalg.norm(np.diff(angles, axis=0), axis=1)
+    holes = np.flatnonzero((gaps > 1.5 * dt) & (turned > tolerance_deg))
+    if holes.size == 0:
+        return None
+    worst = holes[np.argmax(turned[holes])]
+    return float(gaps[worst]), float(turned[worst])
+
+
+def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geometry: TableGeometry,
+                 target: Orientation, step: int, m: MotionSettings, attempt: int = 1) -> Recording:
+    """Record one attempt at hold `step`; stored unless the chips lost their configuration or the hold moved."""
     ticks = int(round(m.hold_s * m.rate_hz))
     chunk = max(int(round(HOLD_POLL_S * m.rate_hz)), 1)
-    for attempt in range(1, m.max_hold_attempts + 1):
-        readings = [table.positions()]
-        for k in range(0, ticks, chunk):
-            sampler.run(min(chunk, ticks - k))
-            readings.append(table.positions())      # encoder log, and a keep-alive for the table's watchdog
-        rec = sampler.take()
-        moved = hold_has_motion(rec, rate_hz=m.rate_hz)
-        drift = float(np.ptp(np.asarray(readings), axis=0).max())
-        if drift > m.tolerance_deg:
-            moved = f"encoders moved {drift:.4f} deg during the hold"
-        if moved is None:
-            measured = tuple(float(v) for v in np.mean(readings, axis=0))
-            table_deg = np.tile(measured, (rec.t.size, 1))
-            q = quat_from_matrix(geometry.rotation(*measured))
-            store.append_hold(step, t=rec.t, samples=rec.samples, q_ref=np.tile(q, (rec.t.size, 1)),
-                              table_deg=table_deg, commanded_deg=(target.outer_deg, target.inner_deg),
-                              measured_deg=measured, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, attempt=attempt)
-            log_read_errors(store, sampler)
-            log_outliers(store, step, rec)
-            return rec
+    readings = [table.positions()]
+    for k in range(0, ticks, chunk):
+        sampler.run(min(chunk, ticks - k))
+        readings.append(table.positions())      # encoder log, and a keep-alive for the table's watchdog
+    rec = sampler.take()
+    log_read_errors(store, sampler)
+    check_configuration(board)
+    moved = hold_has_motion(rec, rate_hz=m.rate_hz)
+    drift = float(np.ptp(np.asarray(readings), axis=0).max())
+    if drift > m.tolerance_deg:
+        moved = f"encoders moved {drift:.4f} deg during the hold"
+    if moved is not None:
         store.log_event("hold-repeated", f"hold {step} attempt {attempt}: {moved}", float(rec.t[-1]))
-    raise HoldFailed(f"hold {step} kept moving in all {m.max_hold_attempts} attempts (see the session's "
-                     f"hold-repeated events); nothing of it was stored, so `rig resume` retries it")
+        raise HoldMoved(f"hold {step} moved ({moved})")
+    measured = tuple(float(v) for v in np.mean(readings, axis=0))
+    table_deg = np.tile(measured, (rec.t.size, 1))
+    q = quat_from_matrix(geometry.rotation(*measured))
+    store.append_hold(step, t=rec.t, samples=rec.samples, q_ref=np.tile(q, (rec.t.size, 1)),
+                      table_deg=table_deg, commanded_deg=(target.outer_deg, target.inner_deg),
+                      measured_deg=measured, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, attempt=attempt)
+    log_outliers(store, step, rec)
+    return rec

@@ -21,7 +21,7 @@ import contextlib
 import datetime as dt
 import signal
 import traceback
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, ContextManager
 
@@ -51,6 +51,7 @@ class RigSpec:
     seed: int | None = None
     time_scale: float | None = None
     trial: int = 0
+    run: int = 0            # 0: the run that starts the session, k: its k-th resume (simulated faults are per run)
 
     @classmethod
     def from_metadata(cls, meta: dict) -> "RigSpec":
@@ -155,7 +156,8 @@ class SessionOrchestrator:
             with contextlib.ExitStack() as hardware:
                 try:
                     hardware.enter_context(table_lock(config.turntable.url))
-                    rig = hardware.enter_context(self.build_rig(config, RigSpec.from_metadata(meta)))
+                    spec = replace(RigSpec.from_metadata(meta), run=len(store.resume_times()) + 1)
+                    rig = hardware.enter_context(self.build_rig(config, spec))
                     rig.board.start()
                 except Busy:
                     raise
@@ -226,7 +228,7 @@ class SessionOrchestrator:
         reason = self._mark(store, status, reason, verdict=verdict, calibration=cal_path.name, report=report.name)
         store.release_reserve()
         return Outcome(self.folder, status, reason, verdict=verdict, holds=holds, n_holds=n_holds,
-                       summary=list(result.summary), warnings=list(result.warnings),
+                       summary=list(result.summary), warnings=list(result.warnings) + survived(store),
                        truth_lines=truth_errors(result.sensors, truth) if truth else [],
                        written=[cal_path, report])
 
@@ -283,6 +285,22 @@ def _added(before: dict | None, stats: dict) -> dict:
     if not before:
         return dict(stats)
     return {k: before.get(k, 0) + v if isinstance(v, (int, float)) else v for k, v in stats.items()}
+
+
+SURVIVED = {"read-error": "read error(s) (empty cells)", "hold-repeated": "hold(s) repeated (motion)",
+            "redo": "step(s) redone (a knock, a chip reset, a gap in a move)", "resume": "interruption(s) resumed"}
+
+
+def survived(store: SessionStore) -> list[str]:
+    """One line saying which faults the recording went through (kept in the session's events), if any."""
+    counts: dict[str, int] = {}
+    for event in store.events():
+        if event["kind"] in SURVIVED:
+            counts[event["kind"]] = counts.get(event["kind"], 0) + 1
+    if not counts:
+        return []
+    return ["recorded through " + ", ".join(f"{n} {SURVIVED[kind]}" for kind, n in counts.items())
+            + f"; when and why are in the event table of {store.path}"]
 
 
 def truth_errors(sensors: dict, truth: dict) -> list[str]:

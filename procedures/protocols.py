@@ -13,6 +13,7 @@ class Triad(Protocol):
 
 class Board(Protocol):
     triads: dict[str, Triad]          # "accel" | "gyro" | "mag"
+    parts: list                       # every part (drivers.contract.Part), e.g. to check their configuration
 
     def start(self) -> None: ...
 
@@ -49,5 +50,8 @@ class Store(Protocol):
                     commanded_deg, measured_deg, temp_c=None, vsupply_v=None, attempt: int = 1) -> None: ...
 
     def append_move(self, step: int, *, t, samples, q_ref, table_deg, temp_c=None, vsupply_v=None) -> None: ...
+
+    def redo(self, t: float, reason: str) -> None:
+        """Forget the move appended last (not committed with its hold): the step is redone from time `t`."""
 
     def log_event(self, kind: str, message: str, t: float | None = None) -> None: ...

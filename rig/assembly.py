@@ -93,16 +93,17 @@ def build_real(config: RigConfig, *, open_i2c=None, open_spi=None, open_gpio=Non
 
 
 def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: float | None = None,
-              effects=()) -> Rig:
+              effects=(), run: int = 0) -> Rig:
     """The simulated rig: everything the real one has, emulated, with the truth known.
 
-    `effects` (from `fixtures.world.effects`) are hidden in the world, e.g. to test the discrepancy analysis.
+    `effects` (from `fixtures.world.effects`) are hidden in the world, e.g. to test the discrepancy analysis;
+    `run` says which run of a session this is ([sim.faults] timed faults happen in the first only, by default).
     """
-    return assemble(config, simulate=True, seed=seed, trial=trial, time_scale=time_scale, effects=effects)
+    return assemble(config, simulate=True, seed=seed, trial=trial, time_scale=time_scale, effects=effects, run=run)
 
 
 def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0, time_scale: float | None = None,
-             effects=(), open_i2c=None, open_spi=None, open_gpio=None) -> Rig:
+             effects=(), open_i2c=None, open_spi=None, open_gpio=None, run: int = 0) -> Rig:
     fake = fake_parts(config, simulate)
     table_fake = fake_turntable(config, simulate)
     names = {p.name for p in placements(config.board, config.chips)}
@@ -116,7 +117,8 @@ def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0
         if not table_fake and fake:
             track = PolledTrack(delay_s=_follow_delay(config))
         if fake or table_fake:
-            hw = SimulatedHardware(config, clock, seed=seed, trial=trial, effects=effects, track=track, only=fake)
+            hw = SimulatedHardware(config, clock, seed=seed, trial=trial, effects=effects, track=track, only=fake,
+                                   run=run)
             stack.enter_context(hw)
         wirings = {}
         real = names - fake
@@ -210,5 +212,6 @@ def build_rig(config: RigConfig, spec) -> Rig:
     """The rig factory a session orchestrator is given (`procedures.orchestrator.RigFactory`): the simulated rig
     for a simulated spec (its seed, noise trial and time scale), else the real one."""
     if spec.simulated:
-        return build_sim(config, seed=spec.seed or 0, trial=spec.trial, time_scale=spec.time_scale)
+        return build_sim(config, seed=spec.seed or 0, trial=spec.trial, time_scale=spec.time_scale,
+                         run=getattr(spec, "run", 0))
     return build_real(config)

@@ -156,8 +156,10 @@ def without_steps(h: HoldStats, excluded: dict[int, str]) -> HoldStats:
 
 def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list[str], settle_s: float = 0.0,
                    rest: np.ndarray | None = None, still_counts: np.ndarray | None = None) -> list[MoveStream]:
-    order = [j for j, _ in session.hold_rows(settle_s)]
+    holds = session.hold_rows(settle_s)
+    order = [j for j, _ in holds]
     next_step = dict(zip(order[:-1], order[1:]))
+    bounds = {j: (float(session.t[a[-1]]), float(session.t[b[0]])) for (j, a), (_, b) in zip(holds[:-1], holds[1:])}
     y_all = session.raw["gyro"]
     rails = rail_codes(y_all)
     out = []
@@ -167,7 +169,7 @@ def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list
         if m.step in excluded or end in excluded:
             warnings.append(f"gyro: move {m.step} -> {end} not used (touches an excluded hold)")
             continue
-        gap = move_gap(m, resumes)
+        gap = move_gap(m, resumes, bounds.get(m.step))
         if gap:
             warnings.append(f"gyro: move {m.step} -> {end} not used: it {gap}")
             continue
@@ -192,14 +194,18 @@ def resume_times(session: SessionData) -> list[float]:
     return sorted(t for t in out if np.isfinite(t))
 
 
-def move_gap(m: MoveStream, resumes: list[float]) -> str | None:
-    """Why a move stream cannot be integrated as one (a resume inside it, a hole in its samples), or None."""
+def move_gap(m: MoveStream, resumes: list[float], bounds: tuple[float, float] | None = None) -> str | None:
+    """Why a move stream cannot be integrated as one (a resume inside it, a hole in its samples), or None.
+
+    `bounds`: the times of the last row of the hold it leaves and the first of the hold it reaches; a stream that
+    starts or ends away from them (its first or last samples missing) has a hole there, judged like any other."""
     for t in resumes:
         if m.t[0] < t <= m.t[-1]:
             return f"spans the resume at session time {t:.3f} s (a clock gap)"
-    dt = np.diff(m.t)
+    t = m.t if bounds is None else np.concatenate([[min(bounds[0], m.t[0])], m.t, [max(bounds[1], m.t[-1])]])
+    dt = np.diff(t)
     if dt.size >= 3:
         worst = int(np.argmax(dt))
         if dt[worst] > max(MOVE_GAP_MIN_S, MOVE_GAP_INTERVALS * float(np.median(dt))):
-            return f"has no samples for {dt[worst]:.3g} s after {m.t[worst]:.3f} s"
+            return f"has no samples for {dt[worst]:.3g} s after {t[worst]:.3f} s"
     return None

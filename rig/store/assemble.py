@@ -6,8 +6,9 @@ than once in one run, only the latest attempt is used: a hold is repeated becaus
 disturbed (a bump). A resumed run starts by holding again at the last orientation recorded before the
 interruption; that visit is kept beside the first one, and as the two are contiguous rows of one step,
 `SessionData.hold_rows` sees one hold whose first rows end the move before the interruption and whose last
-rows start the move after it. So no move spans the clock gap of a resume. The superseded rows stay in the
-file.
+rows start the move after it. So no move spans the clock gap of a resume. A step redone within a run (a chip
+reset to its power-on registers spoiled it, `SessionStore.redo`) starts the same way, from the previous hold
+held again. The superseded rows stay in the file.
 
 Runs are told apart by the `resume` events: each records the session time its run starts at.
 
@@ -28,6 +29,7 @@ from rig.store.segment import sensor_columns
 
 
 RESUME_EVENT = "resume"
+REDO_EVENT = "redo"
 
 
 def resume_times(db: sqlite3.Connection) -> list[float]:
@@ -36,12 +38,20 @@ def resume_times(db: sqlite3.Connection) -> list[float]:
     return [float(t) for (t,) in rows]
 
 
+def run_starts(db: sqlite3.Connection) -> list[float]:
+    """Session times at which a run (a resume) or a redone step (`SessionStore.redo`) started, ascending."""
+    rows = db.execute("SELECT t FROM event WHERE kind IN (?, ?) AND t IS NOT NULL ORDER BY t",
+                      (RESUME_EVENT, REDO_EVENT))
+    return [float(t) for (t,) in rows]
+
+
 def used_segments(db: sqlite3.Connection) -> list[tuple[int, str, int]]:
     """(id, phase, step) of the segments a session is built from, in commit order (see the module doc).
 
     Commit order, not the attempt number, decides what is latest: a resumed run numbers its attempts from 1.
+    A redone step (a chip reset spoiled it) is held again like a resumed run, and kept the same way.
     """
-    starts = resume_times(db)
+    starts = run_starts(db)
     rows = db.execute("SELECT id, phase, step, t_start FROM segment ORDER BY id").fetchall()
     run_of = {seg: sum(t >= s for s in starts) for seg, _, _, t in rows}
     latest: dict[tuple, int] = {}

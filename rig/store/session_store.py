@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import sqlite3
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -27,7 +28,7 @@ import numpy as np
 from rig.errors import InputError, RigError
 from rig.session_data import SessionData
 from rig.store import arrays
-from rig.store.assemble import RESUME_EVENT, assemble_session, resume_times
+from rig.store.assemble import REDO_EVENT, RESUME_EVENT, assemble_session, resume_times
 from rig.store.schema import APPLICATION_ID, DDL, FORMAT, LAYOUT_VERSION, SESSION_FILE
 from rig.store.segment import checked_arrays, hold_stat_rows
 
@@ -217,6 +218,15 @@ class SessionStore:
                              f"segment ({last!r} s); session time must not run backwards")
         self._pending_move = (int(step), data)
 
+    def redo(self, t: float, reason: str) -> None:
+        """The procedure redoes a step from session time `t`, holding again at the last stored hold: the move
+        appended last (not committed with a hold) is forgotten, and the visit from `t` is kept beside the first
+        one like a resumed run's (see `rig.store.assemble`). No clock gap: moves recorded from `t` are whole."""
+        self._pending_move = None
+        with self._transaction() as db:
+            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
+                       (float(t), REDO_EVENT, reason, _utc_now()))
+
     def log_event(self, kind: str, message: str, t: float | None = None) -> None:
         with self._transaction() as db:
             db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
@@ -276,7 +286,7 @@ class SessionStore:
                 except sqlite3.Error:
                     pass
             if isinstance(exc, sqlite3.Error):
-                raise SessionStoreError(f"{self.path}: could not write the session: {_why(exc)}") from exc
+                raise SessionStoreError(f"{self.path}: could not write the session: {_why(exc, self.path)}") from exc
             raise
 
     def _insert_segment(self, db: sqlite3.Connection, phase: str, step: int, attempt: int,
@@ -299,11 +309,39 @@ class SessionStore:
         return seg
 
 
-def _why(exc: sqlite3.Error) -> str:
+def _why(exc: sqlite3.Error, path: Path | None = None) -> str:
+    """SQLite's message, with the cause a user can act on when it is a write that failed."""
     text = str(exc)
-    if "full" in text or getattr(exc, "sqlite_errorcode", None) == sqlite3.SQLITE_FULL:
+    code = getattr(exc, "sqlite_errorcode", None)
+    if "full" in text or code == sqlite3.SQLITE_FULL:
         return f"{text} (the disk is full: free some space, then `rig resume`)"
+    if path is not None and code is not None and code & 0xFF == sqlite3.SQLITE_IOERR:
+        return f"{text} ({_write_failure(Path(path))})"
     return text
+
+
+def _write_failure(path: Path) -> str:
+    """Why a write to the session folder failed: a file-size limit on this process (ulimit -f: EFBIG), a full
+    disk (sometimes said as an I/O error), or the disk itself."""
+    folder = path.parent
+    try:
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    except (ImportError, OSError, ValueError):
+        limit = None
+    if limit is not None and limit != getattr(resource, "RLIM_INFINITY", -1):
+        sizes = [f.stat().st_size for f in folder.glob(path.name + "*") if f.is_file()]
+        if sizes and max(sizes) + 65536 >= limit:
+            return (f"this process may not write files over {limit} bytes (file-size limit, ulimit -f) and the "
+                    "session has reached it: raise the limit, then `rig resume`")
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        free = None
+    if free is not None and free < RESERVE_BYTES:
+        return f"the disk is full ({free} bytes free): free some space, then `rig resume`"
+    return "writing to the disk failed (removed, read-only or failing?); check it, then `rig resume`"
 
 
 def _check_writable(folder: Path) -> None:
@@ -322,7 +360,7 @@ def _connect(path: Path, uri: str) -> sqlite3.Connection:
         if not os.access(path.parent, os.W_OK):
             raise NotASession(f"{path.parent}: the folder is not writable ({exc})") from exc
         if isinstance(exc, sqlite3.OperationalError) and not path.exists():
-            raise SessionStoreError(f"{path}: cannot create the session file ({_why(exc)})") from exc
+            raise SessionStoreError(f"{path}: cannot create the session file ({_why(exc, path)})") from exc
         raise NotASession(f"{path}: not a readable SQLite session file ({exc})") from exc
     if mode.lower() != "wal":
         conn.close()

@@ -1,4 +1,4 @@
-"""The calibration procedure on the simulated rig: bumped holds repeated, the table always left safe."""
+"""The calibration procedure on the simulated rig: bumped holds redone, the table always left safe."""
 
 import numpy as np
 import pytest
@@ -28,6 +28,10 @@ class MemoryStore:
 
     def log_event(self, kind, message, t=None):
         self.events.append((kind, message))
+
+    def redo(self, t, reason):
+        self.moves.pop()                    # the move into the spoiled hold, never followed by its hold
+        self.events.append(("redo", reason))
 
 
 def sim_rig(board="bsn", seed=3):
@@ -71,20 +75,24 @@ def test_session_records_every_hold_and_move_and_matches_the_truth(board):
         assert np.allclose(np.diff(move["t"]), 0.01)
 
 
-def test_a_bumped_hold_is_detected_and_repeated():
+def test_a_bumped_hold_is_detected_and_its_step_redone():
+    """The move into the bumped hold is recorded again from the previous hold held again, so the gyro keeps it."""
     with sim_rig() as rig:
         rig.board.start()
+        bumped = []
 
         def bump_next_hold(step):
-            if step == 1:                                    # the move into hold 2 just ended
+            if step == 1 and not bumped:                     # the move into hold 2 just ended
+                bumped.append(step)
                 rig.world.bumps.append(Bump(rig.clock.now() + 2.0, amplitude_deg=0.3))
 
         store = MemoryStore(on_move=bump_next_hold)
         record(rig, store, SCHEDULE[:4])
     kinds = [k for k, _ in store.events]
-    assert kinds == ["hold-repeated"], store.events
-    assert "hold 2" in store.events[0][1]
+    assert kinds == ["hold-repeated", "redo"], store.events
+    assert "hold 2" in store.events[0][1] and "step 2 redone from hold 1 held again" in store.events[1][1]
     assert store.holds[2]["attempt"] == 2 and store.holds[1]["attempt"] == 1
+    assert [step for step, _ in store.moves] == [0, 1, 2]
 
 
 def test_a_move_that_never_arrives_fails_with_the_table_stopped_and_disabled():
@@ -105,13 +113,12 @@ def test_a_hold_that_never_stops_moving_fails_after_three_attempts_and_stores_no
         rig.board.start()
 
         def keep_bumping(step):
-            if step == 1:
-                now = rig.clock.now()
-                rig.world.bumps.extend(Bump(now + 2.0 + 5.1 * k, amplitude_deg=0.3) for k in range(3))
+            if step == 1:                                    # every time the move into hold 2 ends
+                rig.world.bumps.append(Bump(rig.clock.now() + 2.0, amplitude_deg=0.3))
 
         store = MemoryStore(on_move=keep_bumping)
         with pytest.raises(HoldFailed, match="hold 2 kept moving in all 3 attempts"):
             record(rig, store, SCHEDULE[:4])
         assert_table_safe(rig)
     assert sorted(store.holds) == [0, 1]
-    assert [k for k, _ in store.events] == ["hold-repeated"] * 3
+    assert [k for k, _ in store.events] == ["hold-repeated", "redo", "hold-repeated", "redo", "hold-repeated"]
