@@ -19,6 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from procedures.replay import replay_comparison  # noqa: E402
 from rig.discrepancy import analyze  # noqa: E402
 from tests.discrepancy.conftest import blind, identifiable_magnitude, session_for  # noqa: E402
 
@@ -39,7 +40,7 @@ def timing(repeats: int = 5) -> dict:
     for seed in range(repeats):
         session, _ = session_for([], 500 + seed)
         t0 = time.perf_counter()
-        analyze(session, with_replay=True)
+        analyze(session, replay=replay_comparison)
         times.append(time.perf_counter() - t0)
     return {"analysis_s_median": statistics.median(times), "analysis_s_max": max(times), "holds": 26,
             "orientations": 20, "repeats": repeats}

@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from procedures.paper_table1 import B_A, H_A, NOISE_VARIANCE  # noqa: E402
 from rig.units import STANDARD_GRAVITY as G  # noqa: E402
-from procedures.planning import plan_orientations, schedule_rotations  # noqa: E402
+from rig.schedule import plan_orientations, schedule_rotations  # noqa: E402
 from rig.calibration.bounds import cramer_rao  # noqa: E402
 from rig.calibration.joint import calibrate_joint  # noqa: E402
 from rig.calibration.twostep import calibrate_two_step  # noqa: E402

@@ -12,7 +12,7 @@ import numpy as np
 from fixtures.motion import TableTrack
 from fixtures.world import World, random_sensor_models
 from fixtures.world.session_sim import SessionPlan, simulate_session
-from procedures.planning import plan_orientations
+from rig.schedule import plan_orientations
 
 
 def per_sample_us() -> dict:

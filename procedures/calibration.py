@@ -19,7 +19,7 @@ import numpy as np
 from drivers.contract import KeepsConfiguration
 from drivers.errors import DriverError
 from procedures.acquisition import Recording, Sampler, hold_has_motion, log_outliers, log_read_errors
-from procedures.planning import Orientation
+from rig.schedule import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles
 from rig.clock import Clock

@@ -27,7 +27,7 @@ from typing import Any, Callable, ContextManager
 
 import numpy as np
 
-from procedures.planning import Orientation
+from rig.schedule import Orientation
 from procedures.session import check_plan, plan_for, record, session_metadata, write_json
 from rig.config import RigConfig, config_from_dict
 from rig.errors import Busy, CalibrationError, InputError, RigError, signal_name

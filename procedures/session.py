@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from procedures.calibration import MotionSettings, run_session
-from procedures.planning import Orientation, plan_orientations, schedule_rotations
+from rig.schedule import Orientation, plan_orientations, schedule_rotations
 from rig import __version__
 from rig.calibration.observability import check_schedule, move_axes_problem
 from rig.config import RigConfig

@@ -13,7 +13,7 @@ import numpy as np
 
 from procedures.acquisition import Sampler
 from procedures.calibration import HOLD_POLL_S, MotionSettings, arm_table, position_table
-from procedures.planning import Orientation
+from rig.schedule import Orientation
 from procedures.reference import interpolate_angles
 from rig.clock import Clock
 from rig.rotations import TableGeometry, quat_from_matrix

@@ -254,7 +254,7 @@ def resume(session, method, no_progress):
 @click.option("--orientations", type=click.IntRange(9, 64), default=None)
 def plan(config_path, orientations):
     """Dry run: the schedule, its observability and the ETA. Nothing moves."""
-    from procedures.planning import estimate_duration
+    from rig.schedule import estimate_duration
     from procedures.session import check_plan, plan_for
 
     config = _config(config_path, orientations)

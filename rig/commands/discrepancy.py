@@ -35,6 +35,7 @@ SENSORS = ("accel", "gyro", "mag")
 def discrepancy(session_dir, json_out, report_dir, no_replay, replicas):
     """Fit the linear model, test every candidate effect, report the ones the data support."""
     from rig.commands.sessions import read_any_session
+    from procedures.replay import replay_comparison
     from rig.discrepancy import analyze
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
@@ -50,7 +51,7 @@ def discrepancy(session_dir, json_out, report_dir, no_replay, replicas):
     try:
         with warnings.catch_warnings():       # overflow on absurd data is reported below, not as numpy noise
             warnings.simplefilter("ignore", RuntimeWarning)
-            report = analyze(session, with_replay=not no_replay, plots_dir=report_dir)
+            report = analyze(session, replay=None if no_replay else replay_comparison, plots_dir=report_dir)
     except RigError as exc:
         raise command_error(exc, prefix=f"{session_dir}: ") from None
     except (ValueError, ArithmeticError) as exc:      # numpy's LinAlgError is a ValueError

@@ -8,6 +8,7 @@ sees raw counts, the reference attitude, time, temperature and supply only.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -58,7 +59,7 @@ def build_states(session: SessionData) -> tuple[list[SensorState], list[str]]:
     return states, skipped
 
 
-def analyze(session: SessionData, *, with_replay: bool = True, plots_dir=None) -> dict:
+def analyze(session: SessionData, *, replay: Callable[..., dict] | None = None, plots_dir=None) -> dict:
     """Fit, test every candidate, accept what passes, extend and refit; the report as a dict.
     With `plots_dir`, residual-vs-covariate plots before and after each finding are written there."""
     t0 = time.perf_counter()
@@ -102,9 +103,8 @@ def analyze(session: SessionData, *, with_replay: bool = True, plots_dir=None) -
                            "tell it from a constant bias, scale/soft iron or mounting"
                            for t in first if t.identifiable < UNIDENTIFIABLE],
     }
-    if with_replay:
-        from rig.discrepancy.replay import replay_comparison
-        report["replay"] = replay_comparison(session, states, extended)
+    if replay is not None:
+        report["replay"] = replay(session, states, extended)
     if plots_dir is not None:
         from rig.discrepancy.plots import write_plots
         report["plots"] = write_plots(states, plots_dir)

@@ -27,7 +27,7 @@ def session_for(effects: list[tuple[str, str]], seed: int, **design):
 
 def blind(session):
     session.meta = {k: v for k, v in session.meta.items() if k != "truth"}
-    return analyze(session, with_replay=False)
+    return analyze(session)
 
 
 def identifiable_magnitude(effect) -> float:

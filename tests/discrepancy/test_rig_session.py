@@ -57,14 +57,14 @@ def recorded_session(effects, tmp_path):
 
 
 def test_clean_rig_session_has_no_finding(tmp_path):
-    report = analyze(recorded_session([], tmp_path), with_replay=False)
+    report = analyze(recorded_session([], tmp_path))
     assert report["findings"] == []
 
 
 def test_hidden_g_sensitivity_in_a_rig_session_is_named_and_sized(tmp_path):
     Gs = np.zeros((3, 3))
     Gs[0, 2] = np.radians(0.08) / G0          # 0.08 deg/s per g on x from specific force along z
-    report = analyze(recorded_session([GyroGSensitivity("gyro", Gs=Gs)], tmp_path), with_replay=False)
+    report = analyze(recorded_session([GyroGSensitivity("gyro", Gs=Gs)], tmp_path))
     found = report["findings"]
     assert [(f["effect"], f["sensor"]) for f in found] == [("gyro_g_sensitivity", "gyro")]
     assert abs(found[0]["magnitude"] - 0.08) < 0.25 * 0.08

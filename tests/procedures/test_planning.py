@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from procedures.planning import Orientation, plan_orientations, schedule_rotations
+from rig.schedule import Orientation, plan_orientations, schedule_rotations
 from rig.calibration.bounds import cramer_rao
 
 G = 9.80665

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fixtures.world.model import Bump
-from procedures.planning import Orientation
+from rig.schedule import Orientation
 from procedures.session import record
 from rig.assembly import build_sim, truth_after_start
 from rig.config import load_config

@@ -15,7 +15,7 @@ from fixtures.followed_table import FollowedTable
 from fixtures.gpio import FakeGpiod
 from fixtures.simrig import SimulatedHardware
 from fixtures.turntable import FakeTurntable, TurntableServer
-from procedures.planning import Orientation, schedule_rotations
+from rig.schedule import Orientation, schedule_rotations
 from procedures.session import record
 from rig.assembly import HardwareUnavailable, build_real, build_sim
 from rig.clock import RealClock
