@@ -25,6 +25,13 @@ SUBCOMMANDS = {
     "table": "rig.turntable.cli:table",
     "sim-turntable": "fixtures.turntable.cli:sim_turntable",
     "import": "rig.commands.importing:import_group",
+    "push": "rig.commands.lab:push",
+    "units": "rig.commands.lab:units",
+    "history": "rig.commands.lab:history",
+    "compare-rigs": "rig.commands.lab:compare_rigs",
+    "pass-fail": "rig.commands.lab:pass_fail",
+    "serve": "rig.commands.lab_web:serve",
+    "batch": "rig.commands.lab_batch:batch",
 }
 
 

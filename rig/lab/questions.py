@@ -1,0 +1,177 @@
+"""Questions no single session answers, asked of either store: a unit's history with its drift, the same
+(golden) unit on every rig, pass/fail by day and rig.
+
+Drift and rig-to-rig differences are judged against the uncertainties the calibrations carry (B_std,
+H_std): a change is flagged when it exceeds `Z_FLAG` combined standard deviations.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+import numpy as np
+
+from rig.lab.records import STATUSES, CalibrationRecord, Filters, iso
+
+Z_FLAG = 3.0
+HISTORY_SCHEMA = "rig-unit-history/1"
+
+
+def history(store, serial: str) -> dict:
+    """Every calibration of `serial`, oldest first, one per session, each compared with the one before it."""
+    entries, previous = [], None
+    for record in store.calibrations(unit=serial):
+        sensors = record.sensors()
+        entry = {"session": record.session, "key": record.key, "started_utc": iso(record.started), "rig": record.rig,
+                 "status": record.status, "source": record.source, "sensors": sensors}
+        if previous is not None:
+            entry["drift"] = {name: drift(previous[name], cal) for name, cal in sensors.items() if name in previous}
+        entries.append(entry)
+        previous = sensors
+    drifted = [{"session": e["session"], "sensor": s, **d} for e in entries for s, d in e.get("drift", {}).items()
+               if d["flagged"]]
+    return {"schema": HISTORY_SCHEMA, "unit": serial, "calibrations": entries, "z_flag": Z_FLAG, "drifted": drifted}
+
+
+def drift(before: dict, after: dict) -> dict:
+    """Largest |change| / combined std of B and of H between two calibrations of one sensor."""
+    out = {}
+    for name in ("B", "H"):
+        z = _z(before.get(name), before.get(f"{name}_std"), after.get(name), after.get(f"{name}_std"))
+        out[f"{name}_z"] = z
+    known = [z for z in out.values() if z is not None]
+    out["flagged"] = bool(known) and max(known) > Z_FLAG
+    return out
+
+
+def _z(a, sa, b, sb) -> float | None:
+    if a is None or b is None or sa is None or sb is None:
+        return None
+    a, b, sa, sb = (np.asarray(v, dtype=float) for v in (a, b, sa, sb))
+    sigma = np.sqrt(sa ** 2 + sb ** 2)
+    if a.shape != b.shape or sigma.shape != a.shape or not np.all(sigma > 0):
+        return None
+    return float(np.max(np.abs(b - a) / sigma))
+
+
+# -- the golden unit on every rig ------------------------------------------------------------------
+def compare_rigs(store, unit: str) -> dict:
+    """Per rig, the unit's mean B and H per sensor with their uncertainty; each rig against all the others
+    (differences, their uncertainty, the rotation between the sensor frames), and the rigs that stand out
+    named with the likely cause: a table whose axes are misaligned rotates the accelerometer's and the
+    gyroscope's frames alike; a magnetic field on the table moves the magnetometer's offset alone."""
+    by_rig: dict[str, list[CalibrationRecord]] = defaultdict(list)
+    for record in store.calibrations(unit=unit):
+        by_rig[record.rig].append(record)
+    rigs = {rig: _rig_mean(records) for rig, records in sorted(by_rig.items())}
+    differences, findings = [], []
+    if len(rigs) >= 2:
+        for rig in rigs:
+            others = [r for rig2, recs in by_rig.items() if rig2 != rig for r in recs]
+            ref = _rig_mean(others)
+            diffs = {s: _difference(rigs[rig][s], ref[s]) for s in rigs[rig] if s in ref}
+            differences.append({"rig": rig, "against": sorted(r for r in rigs if r != rig), "sensors": diffs})
+            findings += _findings(rig, diffs)
+    return {"schema": "rig-compare-rigs/1", "unit": unit, "z_flag": Z_FLAG,
+            "rigs": [{"rig": rig, "sessions": len(by_rig[rig]), "sensors": _plain(rigs[rig])} for rig in rigs],
+            "differences": _plain(differences), "findings": findings}
+
+
+def _rig_mean(records: list[CalibrationRecord]) -> dict:
+    """Per sensor: the mean B and H of the sessions and the uncertainty of that mean (the sessions' own
+    uncertainty and their scatter, whichever is larger)."""
+    per: dict[str, dict[str, list]] = defaultdict(lambda: defaultdict(list))
+    for record in records:
+        for name, cal in record.sensors().items():
+            for k in ("B", "H", "B_std", "H_std"):
+                if cal.get(k) is not None:
+                    per[name][k].append(np.asarray(cal[k], dtype=float))
+    out = {}
+    for name, values in per.items():
+        entry = {"n": len(values["B"])}
+        for k in ("B", "H"):
+            stack = np.array(values[k])
+            n = len(stack)
+            own = np.sqrt(np.mean(np.array(values[f"{k}_std"]) ** 2, axis=0) / n) if len(values[f"{k}_std"]) == n \
+                else np.zeros_like(stack[0])
+            scatter = stack.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else np.zeros_like(stack[0])
+            entry[k], entry[f"{k}_u"] = stack.mean(axis=0), np.maximum(own, scatter)
+        out[name] = entry
+    return out
+
+
+def _difference(mine: dict, ref: dict) -> dict:
+    dB, uB = mine["B"] - ref["B"], np.hypot(mine["B_u"], ref["B_u"])
+    dH, uH = mine["H"] - ref["H"], np.hypot(mine["H_u"], ref["H_u"])
+    # E = H_mine H_ref^-1 - I; its antisymmetric part is the rotation between the two sensor frames
+    inv = np.linalg.inv(ref["H"])
+    E = mine["H"] @ inv - np.eye(3)
+    uE = np.sqrt((uH ** 2) @ (inv ** 2))
+    pairs = ((2, 1), (0, 2), (1, 0))
+    rot = np.array([(E[i, j] - E[j, i]) / 2 for i, j in pairs])
+    rot_u = np.array([np.hypot(uE[i, j], uE[j, i]) / 2 for i, j in pairs])
+    return {"dB": dB, "dB_u": uB, "B_z": _zmax(dB, uB), "dH": dH, "dH_u": uH, "H_z": _zmax(dH, uH),
+            "rotation_deg": np.degrees(rot), "rotation_deg_u": np.degrees(rot_u), "rotation_z": _zmax(rot, rot_u)}
+
+
+def _zmax(d: np.ndarray, u: np.ndarray) -> float | None:
+    ok = u > 0
+    return float(np.max(np.abs(d[ok]) / u[ok])) if ok.any() else None
+
+
+def _findings(rig: str, diffs: dict) -> list[dict]:
+    def big(sensor, key):
+        z = diffs.get(sensor, {}).get(key)
+        return z is not None and z > Z_FLAG
+
+    found = []
+    inertial = [s for s in ("accel", "gyro") if s in diffs]
+    if inertial and all(big(s, "rotation_z") for s in inertial):
+        angle = max(float(np.linalg.norm(diffs[s]["rotation_deg"])) for s in inertial)
+        found.append({"rig": rig, "cause": "table_misalignment", "sensors": inertial,
+                      "text": f"rig {rig}: the {' and '.join(inertial)} frames are rotated by about {angle:.3g} deg "
+                              "against the other rigs (z > 3): its table's axes are misaligned (or the fixture "
+                              "holds the unit differently)"})
+    inertial_agree = not any(big(s, k) for s in inertial for k in ("B_z", "H_z"))
+    if "mag" in diffs and (big("mag", "B_z") or big("mag", "H_z")) and inertial_agree:
+        dB = diffs["mag"]["dB"]
+        found.append({"rig": rig, "cause": "magnetic_environment", "sensors": ["mag"],
+                      "text": f"rig {rig}: the magnetometer's offset differs by {np.array2string(dB, precision=3)} "
+                              "counts (z > 3) while its accelerometer and gyroscope agree with the other rigs: a "
+                              "different magnetic environment (a field carried by its table, a magnetised part "
+                              "near the unit)"})
+    named = {s for f in found for s in f["sensors"]}
+    for sensor, d in diffs.items():
+        if sensor not in named and (big(sensor, "B_z") or big(sensor, "H_z")):
+            found.append({"rig": rig, "cause": "differs", "sensors": [sensor],
+                          "text": f"rig {rig}: {sensor} differs from the other rigs (B z = {d['B_z']:.3g}, "
+                                  f"H z = {d['H_z']:.3g})"})
+    return found
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+# -- pass/fail by day and rig ----------------------------------------------------------------------
+def pass_fail(store, filters: Filters) -> dict:
+    """Sessions per day and rig by status; `passed` is the share of finished ones (complete / complete +
+    rejected) — a session that failed or was aborted has no verdict."""
+    table: dict[tuple, dict] = {}
+    for day, rig, status, n in store.pass_fail(filters):
+        row = table.setdefault((day, rig), {"day": day.isoformat(), "rig": rig, **{s: 0 for s in STATUSES}})
+        row[status] = row.get(status, 0) + int(n)
+    rows = []
+    for row in table.values():
+        finished = row["complete"] + row["rejected"]
+        row["passed"] = row["complete"] / finished if finished else None
+        rows.append(row)
+    return {"schema": "rig-pass-fail/1", "filters": filters.as_query(), "rows": rows}
