@@ -213,8 +213,9 @@ def compare_rigs(unit, store_url, json_out):
     if len(data["rigs"]) < 2:
         click.echo("only one rig has calibrated this unit: nothing to compare")
     for diff in data["differences"]:
+        pair = " - ".join(diff["rigs"])
         for sensor, d in diff["sensors"].items():
-            click.echo(f"  {diff['rig']:<12} {sensor:<5} B z={_z(d['B_z'])}  H z={_z(d['H_z'])}  rotation "
+            click.echo(f"  {pair:<24} {sensor:<5} B z={_z(d['B_z'])}  H z={_z(d['H_z'])}  rotation "
                        f"{_vec(d['rotation_deg'])} deg (z={_z(d['rotation_z'])})")
     for finding in data["findings"]:
         click.echo(finding["text"])

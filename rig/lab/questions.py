@@ -8,6 +8,7 @@ H_std): a change is flagged when it exceeds `Z_FLAG` combined standard deviation
 from __future__ import annotations
 
 from collections import defaultdict
+from itertools import combinations
 
 import numpy as np
 
@@ -56,25 +57,38 @@ def _z(a, sa, b, sb) -> float | None:
 
 # -- the golden unit on every rig ------------------------------------------------------------------
 def compare_rigs(store, unit: str) -> dict:
-    """Per rig, the unit's mean B and H per sensor with their uncertainty; each rig against all the others
-    (differences, their uncertainty, the rotation between the sensor frames), and the rigs that stand out
-    named with the likely cause: a table whose axes are misaligned rotates the accelerometer's and the
-    gyroscope's frames alike; a magnetic field on the table moves the magnetometer's offset alone."""
+    """Per rig, the unit's mean B and H per sensor with their uncertainty; every pair of rigs compared
+    (differences, their uncertainty, the rotation between the sensor frames); a rig that differs from most of
+    the others is named with the likely cause: a table whose axes are misaligned rotates the accelerometer's
+    and the gyroscope's frames alike; a magnetic field on the table moves the magnetometer's offset alone.
+    Two rigs that differ cannot say which one is off: both are named, and a third rig settles it."""
     by_rig: dict[str, list[CalibrationRecord]] = defaultdict(list)
     for record in store.calibrations(unit=unit):
         by_rig[record.rig].append(record)
     rigs = {rig: _rig_mean(records) for rig, records in sorted(by_rig.items())}
-    differences, findings = [], []
-    if len(rigs) >= 2:
-        for rig in rigs:
-            others = [r for rig2, recs in by_rig.items() if rig2 != rig for r in recs]
-            ref = _rig_mean(others)
-            diffs = {s: _difference(rigs[rig][s], ref[s]) for s in rigs[rig] if s in ref}
-            differences.append({"rig": rig, "against": sorted(r for r in rigs if r != rig), "sensors": diffs})
-            findings += _findings(rig, diffs)
+    pairs = {}
+    for a, b in combinations(rigs, 2):
+        pairs[(a, b)] = {s: _difference(rigs[a][s], rigs[b][s]) for s in rigs[a] if s in rigs[b]}
+    findings = []
+    for rig in rigs:
+        others = [r for r in rigs if r != rig]
+        against = {o: pairs[(rig, o)] if (rig, o) in pairs else _reversed(pairs[(o, rig)]) for o in others}
+        findings += _findings(rig, against)
+    if len(rigs) == 2 and findings:
+        a, b = rigs
+        findings = [{"rig": f"{a} / {b}", "cause": f["cause"], "sensors": f["sensors"],
+                     "text": f["text"].replace(f"rig {a}:", f"rigs {a} and {b} differ:", 1)
+                     + "; with two rigs it cannot be told which one is off (calibrate the unit on a third)"}
+                    for f in findings if f["rig"] == a]
     return {"schema": "rig-compare-rigs/1", "unit": unit, "z_flag": Z_FLAG,
             "rigs": [{"rig": rig, "sessions": len(by_rig[rig]), "sensors": _plain(rigs[rig])} for rig in rigs],
-            "differences": _plain(differences), "findings": findings}
+            "differences": [{"rigs": [a, b], "sensors": _plain(d)} for (a, b), d in pairs.items()],
+            "findings": findings}
+
+
+def _reversed(diffs: dict) -> dict:
+    return {s: {k: (-v if k.startswith(("dB", "dH", "rotation_deg")) and not k.endswith("_u") else v)
+                for k, v in d.items()} for s, d in diffs.items()}
 
 
 def _rig_mean(records: list[CalibrationRecord]) -> dict:
@@ -119,33 +133,48 @@ def _zmax(d: np.ndarray, u: np.ndarray) -> float | None:
     return float(np.max(np.abs(d[ok]) / u[ok])) if ok.any() else None
 
 
-def _findings(rig: str, diffs: dict) -> list[dict]:
-    def big(sensor, key):
+def _findings(rig: str, against: dict[str, dict]) -> list[dict]:
+    """What sets `rig` apart: a signature seen against more than half of the other rigs (all of them when
+    there is one other)."""
+    def big(diffs, sensor, key):
         z = diffs.get(sensor, {}).get(key)
         return z is not None and z > Z_FLAG
 
-    found = []
-    inertial = [s for s in ("accel", "gyro") if s in diffs]
-    if inertial and all(big(s, "rotation_z") for s in inertial):
-        angle = max(float(np.linalg.norm(diffs[s]["rotation_deg"])) for s in inertial)
-        found.append({"rig": rig, "cause": "table_misalignment", "sensors": inertial,
+    def most(test) -> list[str]:
+        hits = [o for o, diffs in against.items() if test(diffs)]
+        return hits if against and len(hits) * 2 > len(against) else []
+
+    found, explained = [], set()
+    inertial = sorted({s for d in against.values() for s in d if s in ("accel", "gyro")})
+    rotated = most(lambda d: inertial and all(big(d, s, "rotation_z") for s in inertial))
+    if rotated:
+        angle = np.mean([max(float(np.linalg.norm(against[o][s]["rotation_deg"])) for s in inertial) for o in rotated])
+        explained |= {s for o in rotated for s, d in against[o].items() if big(against[o], s, "rotation_z")}
+        found.append({"rig": rig, "cause": "table_misalignment", "sensors": inertial, "against": rotated,
                       "text": f"rig {rig}: the {' and '.join(inertial)} frames are rotated by about {angle:.3g} deg "
-                              "against the other rigs (z > 3): its table's axes are misaligned (or the fixture "
-                              "holds the unit differently)"})
-    inertial_agree = not any(big(s, k) for s in inertial for k in ("B_z", "H_z"))
-    if "mag" in diffs and (big("mag", "B_z") or big("mag", "H_z")) and inertial_agree:
-        dB = diffs["mag"]["dB"]
-        found.append({"rig": rig, "cause": "magnetic_environment", "sensors": ["mag"],
+                              f"against rig {', '.join(rotated)} (z > {Z_FLAG:g}): its table's axes are misaligned "
+                              "(or its fixture holds the unit differently)"})
+
+    def magnetic(d) -> bool:
+        inertial_agree = not any(big(d, s, k) for s in inertial for k in ("B_z", "H_z", "rotation_z"))
+        return "mag" in d and big(d, "mag", "B_z") and inertial_agree
+
+    shifted = most(magnetic)
+    if shifted:
+        dB = np.mean([against[o]["mag"]["dB"] for o in shifted], axis=0)
+        explained.add("mag")
+        found.append({"rig": rig, "cause": "magnetic_environment", "sensors": ["mag"], "against": shifted,
                       "text": f"rig {rig}: the magnetometer's offset differs by {np.array2string(dB, precision=3)} "
-                              "counts (z > 3) while its accelerometer and gyroscope agree with the other rigs: a "
-                              "different magnetic environment (a field carried by its table, a magnetised part "
-                              "near the unit)"})
-    named = {s for f in found for s in f["sensors"]}
-    for sensor, d in diffs.items():
-        if sensor not in named and (big(sensor, "B_z") or big(sensor, "H_z")):
-            found.append({"rig": rig, "cause": "differs", "sensors": [sensor],
-                          "text": f"rig {rig}: {sensor} differs from the other rigs (B z = {d['B_z']:.3g}, "
-                                  f"H z = {d['H_z']:.3g})"})
+                              f"counts against rig {', '.join(shifted)} (z > {Z_FLAG:g}) while its accelerometer "
+                              "and gyroscope agree: a different magnetic environment (a field carried by its table, "
+                              "a magnetised part near the unit)"})
+    sensors = sorted({s for d in against.values() for s in d} - explained)
+    for sensor in sensors:
+        hits = most(lambda d: big(d, sensor, "B_z") or big(d, sensor, "H_z"))
+        if hits:
+            z = max(max(against[o][sensor]["B_z"] or 0, against[o][sensor]["H_z"] or 0) for o in hits)
+            found.append({"rig": rig, "cause": "differs", "sensors": [sensor], "against": hits,
+                          "text": f"rig {rig}: {sensor} differs from rig {', '.join(hits)} (z up to {z:.3g})"})
     return found
 
 
