@@ -93,7 +93,11 @@ def _push_all(folders: list[Path], store_url: str, rig_name: str | None) -> int:
     from rig.lab.mirror import push_folder
     from rig.lab.pg import connect
 
-    conn = connect(store_url)
+    try:
+        conn = connect(store_url)
+    except StoreError as exc:
+        raise CommandError(f"{exc}; nothing was pushed: the session folders are unchanged and can be "
+                           "pushed later", code_for(exc)) from None
     code, pushed = Exit.OK, 0
     try:
         for folder in folders:

@@ -51,7 +51,7 @@ def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
             store.close()
         write_json(json_out, summary)
     click.echo(f"{summary['ok']} of {summary['sessions']} sessions analysed in {summary['seconds']:.1f} s on "
-               f"{summary['workers']} workers; results stored as run {summary['run']}")
+               f"{summary['workers']} worker{'s' if summary['workers'] != 1 else ''}; results stored as run {summary['run']}")
     for f in summary["failed"][:20]:
         click.echo(f"  {f['session']}: {f['error']}", err=True)
     if summary["failed"]:

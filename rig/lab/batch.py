@@ -114,7 +114,9 @@ def run_batch(store, store_url: str, kind: str, keys: list[str], *, scheduler: s
         client = Client(cluster)
     try:
         n_workers = len(client.scheduler_info()["workers"])
-        echo(f"{kind}: {len(keys)} sessions on {n_workers} Dask workers ({scheduler or 'a local cluster'}), run {run}")
+        plural = "s" if n_workers != 1 else ""
+        echo(f"{kind}: {len(keys)} sessions on {n_workers} Dask worker{plural} ({scheduler or 'a local cluster'}), "
+             f"run {run}")
         client.run(_warm)                      # imports done before the clock starts
         t0 = time.perf_counter()
         futures = client.map(analyse_one, [store_url] * len(keys), keys, kind=kind, options=options, pure=False)

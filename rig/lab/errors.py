@@ -26,6 +26,10 @@ class SchemaMismatch(StoreError):
     """The database holds the lab's tables in another version than this rig writes."""
 
 
+class NoLabTables(SchemaMismatch):
+    """The database is reachable but nothing was ever pushed to it (a reader sees an empty store)."""
+
+
 class PushRefused(InputError):
     """A session that conflicts with the one stored under the same identity (exit 2)."""
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import psycopg
 
-from rig.lab.errors import SchemaMismatch, StoreReadOnly, redact
+from rig.lab.errors import NoLabTables, SchemaMismatch, StoreReadOnly, redact
 
 LAB_SCHEMA_VERSION = 1
 SCHEMA_LOCK = 0x52494753          # pg_advisory_xact_lock key while creating the tables ("RIGS")
@@ -119,7 +119,7 @@ def ensure_schema(conn: psycopg.Connection, url: str, *, create: bool = True) ->
     version = stored_version(conn)
     if version is None:
         if not create:
-            raise SchemaMismatch(f"{redact(url)}: the database has no lab tables yet (the first `rig push` "
+            raise NoLabTables(f"{redact(url)}: the database has no lab tables yet (the first `rig push` "
                                  "creates them)")
         try:
             with conn.transaction():

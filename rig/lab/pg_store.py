@@ -8,8 +8,9 @@ import uuid
 from psycopg_pool import ConnectionPool, PoolTimeout
 
 from rig.lab import sessiondata
-from rig.lab.errors import StoreUnavailable, redact
+from rig.lab.errors import NoLabTables, StoreUnavailable, redact
 from rig.lab.pg import CONNECT_TIMEOUT_S, STATEMENT_TIMEOUT_MS, TCP_USER_TIMEOUT_MS, connect, translated
+from rig.lab.pg_schema import ensure_schema, stored_version
 from rig.lab.records import CalibrationRecord, Filters, SessionRow, load_document
 from rig.session_data import SessionData
 
@@ -27,7 +28,11 @@ class PgStore:
 
     def __init__(self, url: str, *, write: bool = False, max_connections: int = 8) -> None:
         self.url = url
-        connect(url, read_only=not write, create=write).close()        # reachable, and the schema is ours
+        try:
+            connect(url, read_only=not write, create=write).close()    # reachable, and the schema is ours
+            self._tables = True
+        except NoLabTables:
+            self._tables = False                                       # nothing pushed yet: an empty store
         options = f"-c statement_timeout={STATEMENT_TIMEOUT_MS}" + ("" if write else
                                                                     " -c default_transaction_read_only=on")
         self.pool = ConnectionPool(url, min_size=1, max_size=max_connections, open=True, timeout=CONNECT_TIMEOUT_S,
@@ -45,6 +50,11 @@ class PgStore:
     def _all(self, sql: str, args=()) -> list[tuple]:
         try:
             with translated(self.url), self.pool.connection() as conn:
+                if not self._tables:
+                    if stored_version(conn) is None:
+                        return []
+                    ensure_schema(conn, self.url, create=False)
+                    self._tables = True
                 return conn.execute(sql, args).fetchall()
         except PoolTimeout:
             raise StoreUnavailable(f"{redact(self.url)}: the database cannot be reached (no connection within "
@@ -56,8 +66,8 @@ class PgStore:
         rows = self._all(f"{ROW}{where} ORDER BY s.started_utc DESC, s.id DESC LIMIT %s OFFSET %s",
                          (*args, limit, offset))
         total = self._all("SELECT count(*) FROM sessions s JOIN units u ON u.id = s.unit_id JOIN rigs r ON "
-                          f"r.id = s.rig_id LEFT JOIN operators o ON o.id = s.operator_id{where}", args)[0][0]
-        return [SessionRow(*r) for r in rows], int(total)
+                          f"r.id = s.rig_id LEFT JOIN operators o ON o.id = s.operator_id{where}", args)
+        return [SessionRow(*r) for r in rows], int(total[0][0]) if total else 0
 
     def session(self, ref: str) -> SessionRow | None:
         column = "s.key" if _is_uuid(ref) else "s.name"
