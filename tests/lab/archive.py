@@ -8,6 +8,8 @@ what its table does to every session on it (effects of `fixtures.world.effects`,
 
 from __future__ import annotations
 
+from datetime import datetime, timedelta
+
 import numpy as np
 
 from fixtures.world.effects import Effect
@@ -54,12 +56,14 @@ def write_session(folder, session, *, unit: str, rig: str, operator: str = "test
         if not finish:
             if status:
                 store.set_status(status, "stopped for the test")
+                store.update_metadata(end_utc=_later(start_utc, float(session.t[-1])))
             return
         if calibrate:
             result = calibrate_session(store.to_session_data(), settle_s=0.0)
             write_session_calibration(folder, result, gravity=session.gravity, field_uT=session.field_uT,
                                       unit_serial=unit, board="bsn", extra={"verdict": "PASS"})
         store.set_status(status or "complete", "", verdict="PASS" if (status or "complete") == "complete" else "FAIL")
+        store.update_metadata(end_utc=_later(start_utc, float(session.t[-1]) + 5.0))   # ended when it would have
 
 
 def _segments(session):
@@ -68,3 +72,8 @@ def _segments(session):
     bounds = [0, *change.tolist(), session.t.size]
     for a, b in zip(bounds[:-1], bounds[1:]):
         yield bool(session.is_move[a]), int(session.step[a]), slice(a, b)
+
+
+def _later(utc: str, seconds: float) -> str:
+    when = datetime.fromisoformat(utc.replace("Z", "+00:00")) + timedelta(seconds=seconds)
+    return when.isoformat(timespec="milliseconds").replace("+00:00", "Z")

@@ -106,11 +106,11 @@ def serve():
 
 
 def make_archive(root: Path, sessions: list[dict]) -> list[Path]:
-    """Session folders from dicts of write_session's keywords plus unit_seed, noise_seed, effects."""
-    plan = small_plan()
+    """Session folders from dicts of write_session's keywords plus unit_seed, noise_seed, effects, plan."""
     folders = []
     for i, spec in enumerate(sessions):
         spec = dict(spec)
+        plan = spec.pop("plan", None) or small_plan()
         session = simulated(spec.pop("unit_seed", 5), spec.pop("noise_seed", 100 + i), plan, spec.pop("effects", []))
         folder = root / spec.pop("name", f"s{i:03d}")
         write_session(folder, session, plan=plan, **spec)
