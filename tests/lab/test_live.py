@@ -14,6 +14,8 @@ from datetime import datetime, timezone
 
 import psycopg
 from selenium.webdriver.common.by import By
+from selenium.webdriver.support import expected_conditions
+from selenium.webdriver.support.ui import WebDriverWait
 
 from rig.lab.mirror import live_mirror
 
@@ -49,7 +51,9 @@ def test_a_running_session_is_watched_live_in_a_browser(tmp_path, pg_url, serve,
             time.sleep(0.3)
         assert links, f"the running session never appeared in the list; mirror: {log}"
         assert browser.find_element(By.CSS_SELECTOR, "#sessions td.status").text == "running"
+        page = browser.find_element(By.TAG_NAME, "html")
         links[0].click()
+        WebDriverWait(browser, 15).until(expected_conditions.staleness_of(page))
         shot_mid = False
         while time.monotonic() < deadline:
             text = browser.find_element(By.ID, "progress").text
@@ -68,7 +72,8 @@ def test_a_running_session_is_watched_live_in_a_browser(tmp_path, pg_url, serve,
     counts = [k for k, _ in seen]
     assert counts == sorted(counts) and len(set(counts)) >= 8, counts       # it advanced, hold by hold
     assert counts[-1] == 20 and int(PROGRESS.match(browser.find_element(By.ID, "progress").text).group(2)) == 20
-    time.sleep(2.5)                                                          # the page reloads with the report
+    WebDriverWait(browser, 20).until(                                       # the page reloads with the report
+        expected_conditions.presence_of_element_located((By.CSS_SELECTOR, "#calibration tbody tr")))
     assert browser.find_element(By.ID, "status").text == "complete"
     assert len(browser.find_elements(By.CSS_SELECTOR, "#holds tbody tr")) == 20
     assert browser.find_element(By.ID, "verdict").text == "PASS"

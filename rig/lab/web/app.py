@@ -136,6 +136,7 @@ def create_app(store) -> Starlette:
               Route("/session/{key}/file/{name}", guarded(artifact)), Route("/units", guarded(units)),
               Route("/unit/{serial:path}", guarded(unit)), Route("/rigs", guarded(rigs)),
               Route("/pass-fail", guarded(pass_fail)), Route("/static/plotly.min.js", plotly_js),
+              Route("/favicon.ico", lambda request: Response(status_code=204)),
               Mount("/static", StaticFiles(directory=HERE / "static"), name="static")]
     return Starlette(routes=routes)
 
