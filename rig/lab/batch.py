@@ -104,13 +104,13 @@ def run_batch(store, store_url: str, kind: str, keys: list[str], *, scheduler: s
 
     options = options or {}
     run = run_id()
-    logging.getLogger("distributed").setLevel(logging.ERROR)
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
     cluster = None
     if scheduler:
         client = Client(scheduler, timeout="10s")
     else:
         cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+                               dashboard_address=None, silence_logs=logging.CRITICAL)
         client = Client(cluster)
     try:
         n_workers = len(client.scheduler_info()["workers"])
