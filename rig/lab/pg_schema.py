@@ -15,7 +15,7 @@ import psycopg
 from rig.lab.errors import NoLabTables, SchemaMismatch, StoreReadOnly, redact
 
 LAB_SCHEMA_VERSION = 1
-SCHEMA_LOCK = 0x52494753          # pg_advisory_xact_lock key while creating the tables ("RIGS")
+SCHEMA_LOCK = 0x52494753          # advisory lock key while creating the tables ("RIGS")
 
 TABLES = ("lab_schema", "rigs", "operators", "units", "sessions", "session_metadata", "segments", "samples",
           "hold_stats", "events", "calibrations", "artifacts", "results")
@@ -122,13 +122,20 @@ def ensure_schema(conn: psycopg.Connection, url: str, *, create: bool = True) ->
             raise NoLabTables(f"{redact(url)}: the database has no lab tables yet (the first `rig push` "
                                  "creates them)")
         try:
-            with conn.transaction():
-                conn.execute("SELECT pg_advisory_xact_lock(%s)", (SCHEMA_LOCK,))
-                if not conn.execute("SELECT to_regclass('lab_schema') IS NOT NULL").fetchone()[0]:
-                    for statement in DDL.split(";"):
-                        if statement.strip():
-                            conn.execute(statement)
-                    conn.execute("INSERT INTO lab_schema (version) VALUES (%s)", (LAB_SCHEMA_VERSION,))
+            # a session lock taken before the transaction: the transaction then starts after any other rig's
+            # creation committed, and sees its tables (a lock taken inside it could look at stale catalogs)
+            conn.execute("SELECT pg_advisory_lock(%s)", (SCHEMA_LOCK,))
+            try:
+                with conn.transaction():
+                    if not conn.execute("SELECT to_regclass('lab_schema') IS NOT NULL").fetchone()[0]:
+                        for statement in DDL.split(";"):
+                            if statement.strip():
+                                conn.execute(statement)
+                        conn.execute("INSERT INTO lab_schema (version) VALUES (%s)", (LAB_SCHEMA_VERSION,))
+            except psycopg.errors.DuplicateTable:
+                pass                                # made by another rig at the same moment: use theirs
+            finally:
+                conn.execute("SELECT pg_advisory_unlock(%s)", (SCHEMA_LOCK,))
         except (psycopg.errors.ReadOnlySqlTransaction, psycopg.errors.InsufficientPrivilege) as exc:
             raise StoreReadOnly(f"{redact(url)}: cannot create the lab tables: the database is read-only for "
                                 f"this user ({exc.diag.message_primary})") from None

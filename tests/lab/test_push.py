@@ -198,3 +198,27 @@ def test_push_refuses_what_is_not_a_session_or_not_a_database(tmp_path, pg_url):
     done = rig("push", tmp_path / "empty", "--store", "postgresql://rig@127.0.0.1:5432/x?sslmode=bogus")
     no_traceback(done)
     assert done.returncode == 3, done.stderr
+
+
+def test_rigs_creating_the_tables_at_the_same_moment_all_succeed(pg_url):
+    import threading
+
+    from rig.lab.pg import connect
+
+    errors, barrier = [], threading.Barrier(8)
+
+    def one():
+        barrier.wait()
+        try:
+            connect(pg_url).close()
+        except Exception as exc:                  # noqa: BLE001 - any failure is the finding
+            errors.append(exc)
+
+    threads = [threading.Thread(target=one) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []
+    with psycopg.connect(pg_url) as conn:
+        assert conn.execute("SELECT count(*) FROM lab_schema").fetchone()[0] == 1
