@@ -17,6 +17,7 @@ import click
 
 from rig.exits import CommandError, Exit, code_for, command_error
 
+LAB_MODULES = ("psycopg", "psycopg_pool", "starlette", "uvicorn", "jinja2", "plotly", "dask", "distributed")
 STORE_HELP = "postgresql://USER@HOST:PORT/DB, or a folder of rig session folders ($RIG_STORE)."
 
 
@@ -36,6 +37,11 @@ def lab_errors():
 
     try:
         yield
+    except ModuleNotFoundError as exc:
+        if (exc.name or "").split(".")[0] not in LAB_MODULES:
+            raise
+        raise CommandError(f"the lab's commands need the package {exc.name!r}: pip install 'rig[lab]'",
+                           Exit.FAILED) from None
     except (RigError, OSError) as exc:
         raise command_error(exc) from None
 
@@ -76,7 +82,8 @@ def push(session_dir, root, store_url, rig_name, follow):
         raise CommandError(f"{store_url}: push goes to a postgresql:// store; a folder store reads session folders "
                            "where they lie (copy the folder into it instead)", Exit.BAD_INPUT)
     if follow:
-        sys.exit(_follow(session_dir, store_url, rig_name))
+        with lab_errors():
+            sys.exit(_follow(session_dir, store_url, rig_name))
     with lab_errors():
         from rig.lab.local import session_folders
 

@@ -19,11 +19,11 @@ def serve(store_url, host, port):
     import logging
     import socket
 
-    import uvicorn
-
-    from rig.lab.web.app import create_app
-
     with lab_errors():
+        import uvicorn
+
+        from rig.lab.web.app import create_app
+
         store = opened(store_url)
     try:
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
