@@ -21,7 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
+from rig.discrepancy import analyze
+from rig.lab.stores import open_store
+from rig.pipeline import calibrate_session
+from rig.pipeline.writing import write_session_calibration
+
 KINDS = ("calibrate", "discrepancy")
+CHUNK_MAX = 16                 # sessions per task at most
 _STORES: dict[str, object] = {}
 
 
@@ -36,8 +42,6 @@ def analyse_one(store_url: str, key: str, kind: str, options: dict) -> dict:
     try:
         store = _STORES.get(store_url)
         if store is None:
-            from rig.lab.stores import open_store
-
             store = _STORES[store_url] = open_store(store_url)
         session = store.session_data(key)
         with warnings.catch_warnings():
@@ -54,10 +58,12 @@ def analyse_one(store_url: str, key: str, kind: str, options: dict) -> dict:
             "error": error, "seconds": time.perf_counter() - t0}
 
 
-def _calibrate(session, options: dict) -> tuple[str, str, str]:
-    from rig.pipeline import calibrate_session
-    from rig.pipeline.writing import write_session_calibration
+def analyse_many(store_url: str, keys: list[str], kind: str, options: dict) -> list[dict]:
+    """On a worker: a chunk of sessions (fewer, larger tasks keep the scheduler out of the way)."""
+    return [analyse_one(store_url, key, kind, options) for key in keys]
 
+
+def _calibrate(session, options: dict) -> tuple[str, str, str]:
     method = options.get("method", "joint")
     result = calibrate_session(session, method=method, settle_s=0.0)
     unit = session.meta.get("unit") or {}
@@ -73,8 +79,6 @@ def _calibrate(session, options: dict) -> tuple[str, str, str]:
 
 
 def _discrepancy(session, options: dict) -> tuple[str, None, str]:
-    from rig.discrepancy import analyze
-
     session.meta = {k: v for k, v in session.meta.items() if k != "truth"}    # the analysis runs blind
     report = analyze(session, with_replay=bool(options.get("replay", False)))
     findings = report.get("findings") or []
@@ -119,20 +123,23 @@ def run_batch(store, store_url: str, kind: str, keys: list[str], *, scheduler: s
              f"run {run}")
         client.run(_warm)                      # imports done before the clock starts
         t0 = time.perf_counter()
-        futures = client.map(analyse_one, [store_url] * len(keys), keys, kind=kind, options=options, pure=False)
-        session_of = {f.key: k for f, k in zip(futures, keys)}
+        size = max(1, min(CHUNK_MAX, len(keys) // (n_workers * 8)))
+        chunks = [keys[i:i + size] for i in range(0, len(keys), size)]
+        futures = client.map(analyse_many, [store_url] * len(chunks), chunks, kind=kind, options=options, pure=False)
+        chunk_of = {f.key: c for f, c in zip(futures, chunks)}
         failed, done = [], 0
         for future in as_completed(futures):
             try:
-                result = future.result()
-            except Exception as exc:            # a worker died: that session is named, the rest go on
-                result = {"key": session_of[future.key], "ok": False, "calibration": None,
-                          "document": json.dumps({"error": f"worker lost: {exc}"}), "error": f"worker lost: {exc}"}
-            store.save_result(result["key"], kind, run, result["ok"], result["document"], result["calibration"],
-                              _digest(result["calibration"]))
-            done += 1
-            if not result["ok"]:
-                failed.append({"session": result["key"], "error": result["error"]})
+                results = future.result()
+            except Exception as exc:            # a worker died: its sessions are named, the rest go on
+                results = [{"key": key, "ok": False, "calibration": None, "error": f"worker lost: {exc}",
+                            "document": json.dumps({"error": f"worker lost: {exc}"})} for key in chunk_of[future.key]]
+            for result in results:
+                store.save_result(result["key"], kind, run, result["ok"], result["document"], result["calibration"],
+                                  _digest(result["calibration"]))
+                done += 1
+                if not result["ok"]:
+                    failed.append({"session": result["key"], "error": result["error"]})
         seconds = time.perf_counter() - t0
     finally:
         client.close()
@@ -144,9 +151,7 @@ def run_batch(store, store_url: str, kind: str, keys: list[str], *, scheduler: s
 
 
 def _warm() -> None:
-    import rig.discrepancy  # noqa: F401
-    import rig.lab.stores  # noqa: F401
-    import rig.pipeline  # noqa: F401
+    """Run on every worker before the clock starts: this module (and so the analysis) imported there."""
 
 
 def _digest(text: str | None) -> str | None:
