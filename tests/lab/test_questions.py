@@ -71,7 +71,8 @@ def test_units_lists_every_unit_with_its_calibrations(tmp_path, store):
 
 
 def test_history_is_every_calibration_oldest_first_with_drift_flagged(tmp_path, store):
-    data = answer(tmp_path, "history", "DRIFTER", "--store", store)
+    data = answer(tmp_path, "history", "DRIFTER", "--store", store, "--plot", tmp_path / "drifter.png")
+    assert (tmp_path / "drifter.png").read_bytes()[:4] == b"\x89PNG"
     entries = data["calibrations"]
     assert data["unit"] == "DRIFTER"
     assert [e["session"] for e in entries] == ["drift-0", "drift-1", "drift-2", "drift-3"]
