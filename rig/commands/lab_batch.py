@@ -44,7 +44,8 @@ def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
                 return
             try:
                 summary = run_batch(store, url, kind, keys, scheduler=scheduler, workers=workers,
-                                    options={"method": method, "replay": replay}, echo=click.echo)
+                                    options={"method": method, "replay": _replay() if replay else None},
+                                    echo=click.echo)
             except OSError as exc:
                 raise CommandError(f"Dask scheduler {scheduler or '(local cluster)'}: {exc}", Exit.FAILED) from None
         finally:
@@ -57,3 +58,10 @@ def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
     if summary["failed"]:
         click.echo(f"{len(summary['failed'])} sessions could not be analysed (their reasons are stored)", err=True)
         sys.exit(Exit.FAILED)
+
+
+def _replay():
+    """The schedule replay runs the simulator (procedures), so the application hands it to the workers."""
+    from procedures.replay import replay_comparison
+
+    return replay_comparison

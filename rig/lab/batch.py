@@ -80,7 +80,7 @@ def _calibrate(session, options: dict) -> tuple[str, str, str]:
 
 def _discrepancy(session, options: dict) -> tuple[str, None, str]:
     session.meta = {k: v for k, v in session.meta.items() if k != "truth"}    # the analysis runs blind
-    report = analyze(session, with_replay=bool(options.get("replay", False)))
+    report = analyze(session, replay=options.get("replay"))
     findings = report.get("findings") or []
     names = [f"{f.get('effect')} ({f.get('sensor')})" for f in findings]
     report["summary"] = "findings: " + (", ".join(names) if names else "none")

@@ -15,7 +15,7 @@ import numpy as np
 from fixtures.world.effects import Effect
 from fixtures.world.model import random_sensor_models
 from fixtures.world.session_sim import SessionPlan, simulate_session
-from procedures.planning import plan_orientations
+from rig.schedule import plan_orientations
 from rig.pipeline import calibrate_session
 from rig.pipeline.writing import write_session_calibration
 from rig.store import SessionStore
