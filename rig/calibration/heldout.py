@@ -27,7 +27,7 @@ import numpy as np
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.calibration.recording_fits import carried_errors
 from rig.calibration.result import TriadCalibration
-from rig.calibration.static_detect import detect_static_intervals, window_samples
+from rig.calibration.static_detect import moving_variance_norm, window_samples
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream, SessionData
 
@@ -120,23 +120,31 @@ def score_series(session: SessionData, rec: RecordingCalibration, cal: dict[str,
 
 
 def unlabelled_rests(session: SessionData, rec: RecordingCalibration, k: float = REST_K) -> list[np.ndarray]:
-    """Rows of the rests outside every segment: windows of `REST_WINDOW_S` whose accelerometer variance is
-    below k times the median of the named poses' (imu_tk's detector, with the poses as the quiet reference),
-    touching no segment (a rest that runs into a named pose is that pose's placement), at least `REST_MIN_S`
-    long after half a window is trimmed from each end."""
+    """Rows of the rests outside every segment: samples whose windows of `REST_WINDOW_S` are as quiet as the
+    named poses' (accelerometer and, where recorded, gyroscope variance below k times the median over the poses:
+    imu_tk's detector with the poses as the quiet reference; the gyro sees a turn about the vertical that the
+    accelerometer does not), touching no segment (a rest that runs into a named pose is that pose's placement), at
+    least `REST_MIN_S` long after a quarter window is trimmed from each end (the hand settling)."""
     if not rec.poses:
         return []
-    y = session.raw["accel"]
-    quiet = float(np.median([np.linalg.norm(np.nanvar(y[p.rows], axis=0, ddof=1)) for p in rec.poses]))
     win = window_samples(session.t, REST_WINDOW_S)
+    if win >= len(session.t):
+        return []
+    quiet = np.ones(len(session.t), dtype=bool)
+    for sensor in ("accel", "gyro"):
+        if sensor in session.raw:
+            y = session.raw[sensor]
+            level = float(np.median([np.linalg.norm(np.nanvar(y[p.rows], axis=0, ddof=1)) for p in rec.poses]))
+            quiet &= np.nan_to_num(moving_variance_norm(y, win), nan=np.inf) < k * level
     named = np.zeros(len(session.t), dtype=bool)
     for seg in session.meta.get("segments") or []:
         named |= (session.t >= seg["t0"]) & (session.t <= seg["t1"])
+    edges = np.diff(np.concatenate([[0], quiet.astype(np.int8), [0]]))
     out = []
-    for a, b in detect_static_intervals(session.t, y, window_s=REST_WINDOW_S, threshold=k * quiet):
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1):
         if named[a:b + 1].any():
             continue
-        a, b = a + win // 2, b - win // 2
+        a, b = a + win // 4, b - win // 4
         if b > a and session.t[b] - session.t[a] >= REST_MIN_S:
             out.append(np.arange(a, b + 1))
     return out
