@@ -168,7 +168,7 @@ def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer
     return {"recording": name, "rows_of_data": int(len(session.t)), "peer": peer, "comparison": rows,
             "ours_heldout": ours_h, "ours_in_sample": ours_in, "peer_scores": theirs, "notes": held.notes,
             "time_s": {"ours_calibrate": round(ours_s, 3), "ours_heldout_refits": round(held_s, 2),
-                       "peer_calibrate": peer_time_s if isinstance(peer_time_s, float) else peer_time_s[0],
+                       "peer_calibrate": round(peer_time_s if isinstance(peer_time_s, float) else peer_time_s[0], 3),
                        **({} if isinstance(peer_time_s, float) else {"peer_method_heldout_refits": peer_time_s[1]})}}
 
 
