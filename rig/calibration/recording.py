@@ -13,10 +13,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rig.calibration.recording_fits import (AXIS_VECTORS, carried_errors, fit_faces, gyro_rotation_fit,
-                                            turn_angle)
+from rig.calibration.recording_fits import (
+    AXIS_VECTORS,
+    CARRY_SD,
+    carried_errors,
+    carry_sd_by_cross_validation,
+    fit_faces,
+    gyro_rotation_fit,
+    turn_angle,
+)
 from rig.calibration.result import TriadCalibration
-from rig.calibration.turntable_free import SAMPLES_PER_INTERVAL, calibrate_turntable_free, fit_accel_upper
+from rig.calibration.turntable_free import (
+    SAMPLES_PER_INTERVAL,
+    calibrate_turntable_free,
+    fit_accel_upper,
+)
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream, SessionData
 
@@ -179,6 +190,11 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
     streams = [motion(session, poses[i], poses[j]) for i, j in carries]
     carry_terms = [(streams[c], g[i], g[j]) for c, (i, j) in enumerate(carries) if c not in skip_carries]
     H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms)
+    carry_sd = CARRY_SD
+    if turn_terms and carry_terms and info["rank"] == 9:
+        carry_sd = carry_sd_by_cross_validation(B, turn_terms, carry_terms, H)
+        if carry_sd != CARRY_SD:
+            H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms, H0=H, carry_sd=carry_sd)
     if info["rank"] < 9:
         raise CalibrationError(f"gyro: the turns and motions left in the fit determine only {info['rank']} of H's 9 "
                                "entries")
@@ -193,7 +209,8 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
         H_std=np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(3, 3), H_cov=cov,
         extra={"turns": [t.name for t in turns], "turn_angle_error_deg": angle_err,
                "carries": [[poses[i].name, poses[j].name] for i, j in carries], "carry_error_deg": carry_err,
-               "residual_unit": "rad (turn angles, carried gravity)"})
+               "residual_unit": "rad (turn angles, carried gravity)",
+               "carry_sd": carry_sd if carries else None})
     return cal, {"turns": len(turn_terms), "carries": len(carry_terms)}
 
 
