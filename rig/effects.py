@@ -54,6 +54,8 @@ EFFECTS: dict[str, EffectSpec] = {e.name: e for e in (
     EffectSpec("table_axis_misalignment", ("rig",), "deg", "table axes not orthogonal / encoder zero offsets"),
     EffectSpec("accel_scale_nonlinearity", ("accel",), "1/(m/s^2)", "second-order response"),
     EffectSpec("supply_ratiometric", ("accel",), "m/s^2 per V", "ratiometric output read against a fixed ADC reference"),
+    EffectSpec("accel_scale_asymmetry", ("accel",), "percent", "different scale for positive and negative specific "
+               "force (an asymmetric rest position of the proof mass)"),
     EffectSpec("gyro_g_sensitivity", ("gyro",), "deg/s per g", "proof-mass response to specific force"),
     EffectSpec("earth_rotation", ("gyro",), "deg/h", "the Earth's rotation, a real input the reference leaves out"),
     EffectSpec("time_offset", ("gyro",), "s", "latency between sensor samples and the reference"),
