@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import multiprocessing as mp
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,8 +61,13 @@ def pose_segments(session: SessionData, rec: RecordingCalibration) -> list[dict]
             for p in rec.poses]
 
 
-def reconstruct(session: SessionData, rec: RecordingCalibration) -> Replay:
-    """The motion, sensors and environment of the recording as the twin replays them."""
+def reconstruct(session: SessionData, rec: RecordingCalibration,
+                added_rate: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> Replay:
+    """The motion, sensors and environment of the recording as the twin replays them.
+
+    The motion between poses is the calibrated gyro's; `added_rate(t, f)` is what a model effect adds to that rate
+    (rad/s, from time and calibrated specific force, relative to the poses' average, which the bias holds), taken
+    out so that the twin, which adds the effect itself, does not replay it twice."""
     t = session.t
     n = len(t)
     if "gyro" not in rec.sensors or "accel" not in rec.sensors:
@@ -72,6 +78,9 @@ def reconstruct(session: SessionData, rec: RecordingCalibration) -> Replay:
     up = [_unit(rec.sensors["accel"].apply(_clean(session.raw["accel"][p.rows]).mean(axis=0, keepdims=True))[0])
           for p in rec.poses]
     omega = _rate(session, rec)
+    if added_rate is not None:
+        f = rec.sensors["accel"].apply(_filled(session.raw["accel"]))
+        omega -= added_rate(t, f) - added_rate(t, f)[pose_of >= 0].mean(axis=0)
     omega[pose_of >= 0] = 0.0
     R = np.empty((n, 3, 3))
     current = _align(np.eye(3), up[pose_of[0]] if pose_of[0] >= 0 else _unit(np.array([0.0, 0.0, 1.0])))
@@ -170,12 +179,15 @@ def _white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) -
     return np.sqrt(np.mean(stds ** 2, axis=0))
 
 
+def _filled(y: np.ndarray) -> np.ndarray:
+    have = ~np.isnan(y).any(axis=1)
+    idx = np.arange(len(y))
+    return np.stack([np.interp(idx, idx[have], y[have, k]) for k in range(3)], axis=1)
+
+
 def _rate(session: SessionData, rec: RecordingCalibration) -> np.ndarray:
     """The calibrated gyro rate (rad/s), gaps filled, smoothed over a few samples."""
-    w = rec.sensors["gyro"].apply(session.raw["gyro"])
-    have = ~np.isnan(w).any(axis=1)
-    for k in range(3):
-        w[:, k] = np.interp(session.t, session.t[have], w[have, k])
+    w = rec.sensors["gyro"].apply(_filled(session.raw["gyro"]))
     kernel = np.ones(SMOOTH_SAMPLES) / SMOOTH_SAMPLES
     return np.stack([np.convolve(w[:, k], kernel, mode="same") for k in range(3)], axis=1)
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from procedures.twin import bands, reconstruct, replica_statistics, twin_view
 from procedures.twin_extension import Cause, family, outside, propose
+from procedures.twin_model import added_rate, model_causes
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.noise.statistics import recording_statistics
 from rig.session_data import SessionData
@@ -30,13 +31,21 @@ def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replic
     base, failed = replica_statistics(replay, seeds)
     before = bands(base)
     off = outside(real, before)
-    causes = propose(view, rec, replay, real, before, off, replicas)
+    model, tests = model_causes(view, rec)
+    extended = replay if not model else reconstruct(view, rec, added_rate(model))
+    middle, off_middle = before, off
+    if model:                          # systematic effects first: the noise is proposed against what they leave
+        runs, failed_model = replica_statistics(extended, seeds, lambda s: [e for c in model for e in c.make(s)])
+        middle, failed = bands(runs), failed + failed_model
+        off_middle = outside(real, middle)
+    causes = model + propose(view, rec, extended, real, middle, off_middle, replicas)
     after, failed_after = before, 0
     if causes:
         quiet = tuple({q for c in causes for q in c.quiet})
-        runs, failed_after = replica_statistics(replay, seeds, lambda s: [e for c in causes for e in c.make(s)], quiet)
+        runs, failed_after = replica_statistics(extended, seeds, lambda s: [e for c in causes for e in c.make(s)],
+                                                quiet)
         after = bands(runs)
-        _attribute(replay, causes, real, off, outside(real, after), seeds[:attribution_replicas])
+        _attribute(extended, causes, real, off, outside(real, after), seeds[:attribution_replicas])
     still = outside(real, after)
     return {
         "schema": SCHEMA, "session": session.source, "replicas": replicas, "replicas_failed": failed + failed_after,
@@ -47,6 +56,7 @@ def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replic
         "causes": [{"effect": c.effect, "sensor": c.sensor, "magnitude": c.magnitude, "unit": c.unit,
                     "params": c.params, "brings_back": sorted(c.brings_back)} for c in causes],
         "unexplained": sorted(still),
+        "model_tests": tests,
         "statistics": {name: {"real": real[name], "before": list(before[name]), "after": list(after.get(name, before[name])),
                               "inside_before": name not in off, "inside_after": name not in still,
                               "family": family(name),

@@ -39,6 +39,7 @@ class Cause:
     make: Callable[[int], list]                    # the world's effects for a replica's seed
     quiet: tuple[str, ...] = ()                    # sensors whose white noise it replaces
     brings_back: list[str] = field(default_factory=list)
+    rate: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None   # rad/s it adds to the gyro at (t, f)
 
 
 def outside(real: dict, bands: dict) -> set[str]:

@@ -41,6 +41,21 @@ SUBCOMMANDS: dict[str, tuple[str, str] | str] = {
                       "Serve a fake two-axis turntable (map tt-map/1 or --profile) until Ctrl-C."),
     "import": ("rig.commands.importing:import_group",
                "A recording from another logger as a session folder every command accepts."),
+    "push": ("rig.commands.lab:push",
+            "Push session folders to the central store: what it lacks, once (pushing again adds nothing)."),
+    "units": ("rig.commands.lab:units",
+             "Every unit in the store: how many calibrations, the latest."),
+    "history": ("rig.commands.lab:history",
+               "Every calibration of a unit, oldest first, with drift flagged against the uncertainty."),
+    "compare-rigs": ("rig.commands.lab:compare_rigs",
+                    "The same (golden) unit on every rig: rig-to-rig differences with their uncertainty, "
+                    "rigs that stand out."),
+    "pass-fail": ("rig.commands.lab:pass_fail",
+                 "Sessions by day and rig: complete (PASS), rejected (FAIL), failed, aborted, running."),
+    "serve": ("rig.commands.lab_web:serve",
+             "Serve the lab's web page: sessions with live progress, reports, unit histories, rig comparison."),
+    "batch": ("rig.commands.lab_batch:batch",
+             "Re-run calibration or the discrepancy analysis over stored sessions; results go back to the store."),
 }
 
 

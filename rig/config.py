@@ -56,6 +56,7 @@ class RigConfig:
     limits: dict = field(default_factory=dict)
     chips: dict = field(default_factory=dict)      # [chips]: buses and per-part overrides of the board's placements
     sim: dict = field(default_factory=dict)        # [sim]: which parts are emulated ("fake") or real
+    store: dict = field(default_factory=dict)      # [store] url (the lab's store), rig (this rig's name in it)
     source: str = "<defaults>"
 
     def to_dict(self) -> dict:
@@ -89,7 +90,7 @@ SECTIONS = {"unit": ("serial", "board", "operator"),
             "table": ("outer_axis_world", "inner_axis_fixture", "outer_zero_deg", "inner_zero_deg"),
             "environment": ("gravity_mps2", "field_uT"),
             "turntable": None, "schedule": None, "limits": None, "chips": None,
-            "sim": ("chips", "turntable", "table_link", "faults")}
+            "sim": ("chips", "turntable", "table_link", "faults"), "store": ("url", "rig")}
 
 
 def _check_keys(raw: dict, where: str) -> None:
@@ -115,6 +116,8 @@ def _section(raw: dict, name: str, cls, where: str):
         numeric = isinstance(default, (int, float)) and not isinstance(default, bool)
         if numeric and (isinstance(value, bool) or not isinstance(value, (int, float))):
             raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a number")
+        if numeric and not math.isfinite(value):
+            raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a finite number")
         if isinstance(default, int) and not isinstance(default, bool) and isinstance(value, float) \
                 and not value.is_integer():
             raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a whole number")
@@ -122,6 +125,13 @@ def _section(raw: dict, name: str, cls, where: str):
         return cls(**data)
     except TypeError as e:
         raise ValueError(f"{where}: [{name}]: {e}") from None
+
+
+def _positive(section: dict, key: str, default: float, where: str) -> float:
+    value = section.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{where}: [environment] {key} = {value!r} must be a positive finite number")
+    return float(value)
 
 
 def _from_dict(raw: dict, where: str) -> RigConfig:
@@ -140,9 +150,13 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
     cfg = RigConfig(serial=str(unit.get("serial", "UNKNOWN")), board=board, operator=str(unit.get("operator", "")),
                     turntable=_section(raw, "turntable", TurntableConfig, where), geometry=geometry,
                     schedule=_section(raw, "schedule", ScheduleConfig, where),
-                    gravity_mps2=float(env.get("gravity_mps2", 9.80665)), field_uT=float(env.get("field_uT", 50.0)),
+                    gravity_mps2=_positive(env, "gravity_mps2", 9.80665, where),
+                    field_uT=_positive(env, "field_uT", 50.0, where),
                     limits=dict(raw.get("limits", {})), chips=dict(raw.get("chips", {})),
-                    sim=dict(raw.get("sim", {})), source=where)
+                    sim=dict(raw.get("sim", {})), store=dict(raw.get("store", {})), source=where)
+    for key, value in cfg.store.items():
+        if not isinstance(value, str) or not value:
+            raise ValueError(f"{where}: [store] {key} = {value!r} must be a non-empty string")
     try:
         placements(cfg.board, cfg.chips)
         check_sim(cfg.board, cfg.sim)
@@ -176,7 +190,7 @@ def config_from_dict(d: dict) -> RigConfig:
                      turntable=TurntableConfig(**d.get("turntable", {})), geometry=geometry,
                      schedule=ScheduleConfig(**d.get("schedule", {})), gravity_mps2=d.get("gravity_mps2", 9.80665),
                      field_uT=d.get("field_uT", 50.0), limits=d.get("limits", {}), chips=d.get("chips", {}),
-                     sim=d.get("sim", {}), source=d.get("source", "<session metadata>"))
+                     sim=d.get("sim", {}), store=d.get("store", {}), source=d.get("source", "<session metadata>"))
 
 
 def check_sim(board: str, sim: dict) -> None:

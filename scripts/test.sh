@@ -2,11 +2,17 @@
 # Runs the whole test suite on a fresh machine: Debian packages the tests need, a venv, the package, pytest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-if ! command -v mbpoll >/dev/null 2>&1; then
+# Debian packages: mbpoll (a Modbus client), postgresql (the lab's tests start their own server),
+# chromium and chromium-driver (the lab's web page is checked in a real headless browser)
+missing=()
+for pkg in mbpoll postgresql chromium chromium-driver; do
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+done
+if [ ${#missing[@]} -gt 0 ]; then
     if [ "$(id -u)" = 0 ]; then
-        (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq mbpoll) >/dev/null
+        (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}") >/dev/null
     else
-        echo "scripts/test.sh: the tests need Debian's mbpoll: sudo apt-get install -y mbpoll" >&2
+        echo "scripts/test.sh: the tests need Debian's ${missing[*]}: sudo apt-get install -y ${missing[*]}" >&2
         exit 2
     fi
 fi

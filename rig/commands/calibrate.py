@@ -169,9 +169,13 @@ def show_outcome(outcome, echo=click.echo) -> int:
 @click.option("--gyro-samples", type=click.Choice(["auto", "point", "mean"]), default="auto", show_default=True,
               help="With --from: a gyro sample is the rate at its time stamp (point) or its mean over the sample "
                    "period (mean); auto fits both and keeps the one that matches the known rotations better.")
+@click.option("--store", "store", default=None, metavar="URL|FOLDER",
+              help="The lab's store ([store] url in the TOML): a postgresql:// URL the session is mirrored into as "
+                   "it runs (recorded locally first; `rig push` finishes what the network kept back), or a folder "
+                   "of session folders that --out must lie in.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scale, method, orientations,
-              gravity, settle_s, gyro_samples, no_progress):
+              gravity, settle_s, gyro_samples, store, no_progress):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if from_dir or fmt == "imu_tk":
         from rig.pipeline import calibrate_from_dir
@@ -200,8 +204,34 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
     if time_scale is not None and not sim:
         raise click.UsageError("--time-scale applies to --sim only")
     config = _config(config_path, orientations)
-    sys.exit(run_session_to(out, config, sim=sim, seed=seed, time_scale=time_scale, method=method,
-                            progress=not no_progress))
+    with mirrored(out, store or config.store.get("url")):
+        code = run_session_to(out, config, sim=sim, seed=seed, time_scale=time_scale, method=method,
+                              progress=not no_progress)
+    sys.exit(code)
+
+
+@contextlib.contextmanager
+def mirrored(out: Path, store: str | None):
+    """The session recorded in `out` and, with a database store, mirrored into it while it runs (rig.lab.mirror:
+    the rig never waits for the network); a folder store is where session folders lie, so `out` must be in it."""
+    if store is None:
+        yield
+        return
+    from rig.lab.errors import is_database_url
+
+    if not is_database_url(store):
+        if not Path(out).resolve().is_relative_to(Path(store).resolve()):
+            raise CommandError(f"--store {store}: a folder store holds session folders; give --out inside it "
+                               f"(e.g. --out {Path(store) / Path(out).name})", Exit.BAD_INPUT)
+        yield
+        return
+    try:
+        from rig.lab.mirror import live_mirror
+    except ModuleNotFoundError as exc:
+        raise CommandError(f"--store {store}: the lab's store needs the package {exc.name!r}: "
+                           "pip install 'rig[lab]'", Exit.BAD_INPUT) from None
+    with live_mirror(out, store):
+        yield
 
 
 def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: float, gravity: float | None,
@@ -241,12 +271,16 @@ def _config(path, orientations) -> RigConfig:
 @click.command()
 @click.argument("session", type=click.Path(exists=True, file_okay=False, path_type=Path))
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True)
+@click.option("--store", "store", default=None, metavar="URL",
+              help="Mirror the session into the lab's postgresql:// store as it runs (as calibrate --store).")
 @click.option("--no-progress", is_flag=True)
-def resume(session, method, no_progress):
+def resume(session, method, store, no_progress):
     """Finish an interrupted session: hold again at its last recorded orientation, record the rest, calibrate.
 
     Refused (exit 4) while another process works on the session or its turntable."""
-    sys.exit(run_session_to(session, None, method=method, progress=not no_progress, resume=True))
+    with mirrored(session, store):
+        code = run_session_to(session, None, method=method, progress=not no_progress, resume=True)
+    sys.exit(code)
 
 
 @click.command()

@@ -34,8 +34,8 @@ SENSORS = ("accel", "gyro", "mag")
               help="Replicas of a recording's twin (recordings without a turntable).")
 def discrepancy(session_dir, json_out, report_dir, no_replay, replicas):
     """Fit the linear model, test every candidate effect, report the ones the data support."""
-    from rig.commands.sessions import read_any_session
     from procedures.replay import replay_comparison
+    from rig.commands.sessions import read_any_session
     from rig.discrepancy import analyze
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
@@ -104,8 +104,9 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     except (ValueError, ArithmeticError) as exc:
         raise CommandError(f"{session_dir}: the twin cannot be built from these data ({type(exc).__name__}: "
                            f"{plain(str(exc))})") from None
+    tested = {(t["effect"], t["sensor"]): t for t in twin["model_tests"]}
     findings = [{"effect": c["effect"], "sensor": c["sensor"], "magnitude": c["magnitude"], "unit": c["unit"],
-                 "uncertainty": None, "heldout_rms_before": None, "heldout_rms_after": None, "heldout_unit": None,
+                 "uncertainty": tested.get((c["effect"], c["sensor"]), {}).get("uncertainty"), "heldout_rms_before": None, "heldout_rms_after": None, "heldout_unit": None,
                  "evidence": {"params": c["params"], "statistics_brought_back": c["brings_back"]}}
                 for c in twin["causes"] if c["brings_back"]]
     summary = twin["summary"]
@@ -130,6 +131,9 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     click.echo(f"statistics inside the replicas' 1-99 % band: {summary['inside_before']}/{n} "
                f"({100 * summary['inside_before'] / n:.0f} %) with the simulator's white noise, "
                f"{summary['inside_after']}/{n} ({100 * summary['inside_after'] / n:.0f} %) with what the recording shows")
+    for t in twin["model_tests"]:
+        click.echo(f"model test {t['effect']} on {t['sensor']}: {t['magnitude']:.4g} +/- {t['uncertainty']:.2g} {t['unit']}, "
+                   f"p {t['p_holm']:.2g} after Holm: {'significant' if t['significant'] else 'not significant'}")
     for c in twin["causes"]:
         back = len(c["brings_back"])
         click.echo(f"{c['effect']} on {c['sensor']}: {c['magnitude']:.4g} {c['unit']}; brings back {back} "

@@ -50,6 +50,13 @@ def test_the_table_takes_negative_angles_as_typed():
         clean(rig("table", "--url", srv.url, "disable"), 0)
 
 
+@pytest.mark.parametrize("value", ["nan", "inf", "0", "-2"])
+def test_the_fake_turntable_refuses_a_time_scale_that_is_no_speed(value):
+    res = rig("sim-turntable", "--time-scale", value)
+    clean(res, 2)
+    assert "--time-scale" in res.stderr
+
+
 def test_a_taken_port_for_the_fake_turntable_is_named():
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))

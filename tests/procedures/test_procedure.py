@@ -30,7 +30,10 @@ class MemoryStore:
         self.events.append((kind, message))
 
     def redo(self, t, reason):
-        self.moves.pop()                    # the move into the spoiled hold, never followed by its hold
+        if self.moves and self.moves[-1][0] + 1 not in self.holds:
+            self.moves.pop()                # the move into the spoiled hold, never followed by its hold (as the
+                                            # session store forgets its pending move; a move spoiled before it
+                                            # was appended leaves nothing to forget)
         self.events.append(("redo", reason))
 
 

@@ -11,8 +11,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
+from inject import inject  # noqa: E402
 
 from procedures.twin_analysis import analyse_twin  # noqa: E402
+from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.io.session_csv import write_session  # noqa: E402
 
 RIG = [sys.executable, "-m", "rig.cli"]
@@ -41,6 +43,22 @@ def test_a_quantised_gyro_is_named_and_sized_blind():
     assert {f"gyro.step.{a}" for a in "xyz"} <= set(named[("quantisation", "gyro")]["brings_back"])
     s = report["summary"]
     assert s["inside_after"] > s["inside_before"] and s["inside_after"] >= 0.9 * s["statistics"]
+
+
+def test_a_g_sensitive_gyro_is_named_as_such_not_as_noise():
+    """A gyro whose rate follows the specific force (0.3 deg/s per g, hidden at every sample, moves included): the
+    recording tests find it, the twin adds it and replays the motion without it (else the moves would carry it
+    twice), and the extended twin holds the pose means without calling it bias instability."""
+    session, _ = generate(4, face_s=8.0)
+    hidden, added = inject(session, calibrate_recording(session), "gyro_g_sensitivity", 0.3, np.random.default_rng(4))
+    report = analyse_twin(hidden, replicas=30, attribution_replicas=6)
+    named = {(c["effect"], c["sensor"]): c for c in report["causes"]}
+    assert set(named) == {("gyro_g_sensitivity", "gyro")}, sorted(named)
+    found = np.array(named[("gyro_g_sensitivity", "gyro")]["params"]["G_deg_s_per_g"])
+    assert np.linalg.norm(found - added["G_deg_s_per_g"]) < 0.15 * np.linalg.norm(added["G_deg_s_per_g"])
+    s = report["summary"]
+    assert s["inside_after"] >= 0.9 * s["statistics"] > s["inside_before"]
+    assert not [n for n in s["outside_after"] if n.startswith("gyro.carry_error")]
 
 
 def test_rig_discrepancy_on_an_imported_recording_writes_the_twin_and_its_plots(tmp_path):

@@ -48,6 +48,12 @@ def test_calibrate_refuses_an_unobservable_schedule_before_anything_moves(tmp_pa
     ('[schedul]\nhold_s = 5\n', "unknown sections ['schedul']"),
     ('[turntable]\nspeed_dps = "fast"\n', "[turntable] speed_dps = 'fast' must be a number"),
     ('[schedule]\norientations = 12.5\n', "[schedule] orientations = 12.5 must be a whole number"),
+    ('[schedule]\nhold_s = nan\n', "[schedule] hold_s = nan must be a finite number"),
+    ('[turntable]\nsettle_s = inf\n', "[turntable] settle_s = inf must be a finite number"),
+    ('[environment]\ngravity_mps2 = -inf\n', "[environment] gravity_mps2 = -inf must be a positive finite number"),
+    ('[environment]\nfield_uT = "strong"\n', "[environment] field_uT = 'strong' must be a positive finite number"),
+    ('[store]\nurl = 5\n', "[store] url = 5 must be a non-empty string"),
+    ('[store]\nhost = "db"\n', "[store] has unknown keys ['host']"),
 ])
 def test_bad_configuration_is_an_error_naming_the_file_and_field(tmp_path, text, needle):
     """Misspelt or mistyped settings are errors, never silently ignored."""

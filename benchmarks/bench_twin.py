@@ -1,0 +1,70 @@
+"""The twin of each real recording (issue 13, items 3-4): `rig discrepancy DIR` as a user runs it, timed as a
+process, and what it found: statistics inside the replicas' 1-99 % band before and after the extension, the
+causes named, the model tests, what stays unexplained. Every recording in shared/data that the importers read is
+used; a recording that is not there is reported as missing, not skipped silently. Prints JSON.
+Usage: python benchmarks/bench_twin.py [--replicas 40] [--shared ../shared]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+RIG = [sys.executable, "-m", "rig.cli"]
+
+
+def imports(data: Path) -> dict[str, list[str]]:
+    return {
+        "imu_tk-xsens": ["imu_tk", "--accel", str(data / "imu_tk-xsens/xsens_acc.mat"),
+                         "--gyro", str(data / "imu_tk-xsens/xsens_gyro.mat")],
+        "imucal-ferraris-si": ["ferraris", "--csv", str(data / "imucal-ferraris/example_ferraris_session.csv"),
+                               "--sections", str(data / "imucal-ferraris/example_ferraris_session_list.json"),
+                               "--rate-hz", "102.4", "--units", "accel=m/s^2,gyro=deg/s"],
+        "imucal-ferraris-raw": ["ferraris", "--annotated", str(data / "imucal-ferraris/annotated_session.csv"),
+                                "--rate-hz", "204.8"],
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--replicas", type=int, default=40)
+    ap.add_argument("--shared", type=Path, default=Path(os.environ.get("RIG_SHARED", ROOT.parent / "shared")))
+    args = ap.parse_args()
+    out = {"replicas": args.replicas, "cpus": os.cpu_count(), "load_1min": os.getloadavg()[0], "recordings": {}}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, argv in imports(args.shared / "data").items():
+            folder = Path(tmp) / name
+            done = subprocess.run([*RIG, "import", *argv, "--out", str(folder)], capture_output=True, text=True,
+                                  check=False)
+            if done.returncode != 0:
+                out["recordings"][name] = {"missing": done.stderr.strip().splitlines()[-1:]}
+                continue
+            t0 = time.perf_counter()
+            run = subprocess.run([*RIG, "discrepancy", str(folder), "--json", str(folder / "d.json"),
+                                  "--replicas", str(args.replicas)], capture_output=True, text=True, check=False)
+            seconds = time.perf_counter() - t0
+            if run.returncode not in (0, 1):
+                out["recordings"][name] = {"exit": run.returncode, "stderr": run.stderr[-500:]}
+                continue
+            twin = json.loads((folder / "d.json").read_text())["twin"]
+            s = twin["summary"]
+            out["recordings"][name] = {
+                "seconds": round(seconds, 1), "statistics": s["statistics"], "inside_before": s["inside_before"],
+                "inside_after": s["inside_after"], "inside_after_pct": round(100 * s["inside_after"] / s["statistics"], 1),
+                "causes": [{"effect": c["effect"], "sensor": c["sensor"], "magnitude": c["magnitude"], "unit": c["unit"],
+                            "brings_back": len(c["brings_back"])} for c in twin["causes"]],
+                "model_tests": [{k: t[k] for k in ("effect", "sensor", "magnitude", "uncertainty", "unit", "p_holm",
+                                                   "significant")} for t in twin["model_tests"]],
+                "unexplained": len(twin["unexplained"])}
+    print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()

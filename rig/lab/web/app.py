@@ -1,0 +1,207 @@
+"""`rig serve`: the lab's web page (Starlette, Jinja2 templates, plotly.js from the plotly package).
+
+Read-only by construction: only GET routes, and the database connections are opened with
+`default_transaction_read_only`. Everything shown is escaped by the templates (autoescape) or set as text by
+the page's script (`textContent`, never HTML); data for the plots travels as JSON in a non-executed script
+element. Nothing is fetched from outside the server: plotly.min.js is served from the installed package.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import uuid
+from datetime import datetime, timezone
+from pathlib import Path
+
+import jinja2
+import plotly
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, Response
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
+from starlette.templating import Jinja2Templates
+
+from rig.errors import RigError
+from rig.lab import questions
+from rig.lab.errors import StoreUnavailable
+from rig.lab.records import STATUSES, Filters, iso
+
+HERE = Path(__file__).parent
+PLOTLY_JS = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+PAGE = 100
+SECURITY_HEADERS = {
+    "Content-Security-Policy": "default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
+                               "script-src 'self'; object-src 'none'; base-uri 'none'; form-action 'self'",
+    "X-Content-Type-Options": "nosniff", "Referrer-Policy": "no-referrer", "X-Frame-Options": "DENY",
+}
+SAFE_NAME = re.compile(r"^[\w.\-]+$")
+
+
+def create_app(store) -> Starlette:
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(HERE / "templates"), autoescape=True,
+                             undefined=jinja2.StrictUndefined)
+    env.policies["json.dumps_function"] = _dumps
+    env.filters["when"] = _when
+    env.filters["num"] = _num
+    templates = Jinja2Templates(env=env)
+
+    def page(request: Request, name: str, status: int = 200, **context) -> Response:
+        context.update(store=store.describe(), path=request.url.path)
+        return templates.TemplateResponse(request, name, context, status_code=status, headers=SECURITY_HEADERS)
+
+    def guarded(handler):
+        def run(request: Request) -> Response:
+            try:
+                return handler(request)
+            except StoreUnavailable as exc:
+                return _problem(request, page, 503, str(exc))
+            except RigError as exc:
+                return _problem(request, page, 400, str(exc))
+        return run
+
+    def sessions(request: Request) -> Response:
+        filters = Filters.parse({k: v for k, v in request.query_params.items() if k != "page"})
+        number = _int(request.query_params.get("page"), 1)
+        rows, total = store.sessions(filters, limit=PAGE, offset=(number - 1) * PAGE)
+        return page(request, "sessions.html", rows=rows, total=total, number=number, pages=max(1, -(-total // PAGE)),
+                    filters=filters, query=filters.as_query(), names=store.names(), statuses=STATUSES)
+
+    def progress(request: Request) -> Response:
+        keys = [k for k in request.query_params.get("keys", "").split(",") if _is_key(k)][:PAGE]
+        rows = [store.session(k) for k in keys]
+        return SafeJSON({"sessions": [r.progress() for r in rows if r is not None],
+                             "now": iso(datetime.now(timezone.utc))}, headers=SECURITY_HEADERS)
+
+    def session(request: Request) -> Response:
+        row = _session_or_404(store, request.path_params["key"])
+        if row is None:
+            return _problem(request, page, 404, "no such session in this store")
+        meta = store.metadata(row.key)
+        calibration = store.calibrations(key=row.key)
+        return page(request, "session.html", row=row, meta=meta, calibration=calibration[-1] if calibration else None,
+                    artifacts=store.artifacts(row.key), events=store.events(row.key),
+                    holds=store.hold_means(row.key), results=store.results(row.key))
+
+    def session_api(request: Request) -> Response:
+        row = _session_or_404(store, request.path_params["key"])
+        if row is None:
+            return SafeJSON({"error": "no such session"}, status_code=404, headers=SECURITY_HEADERS)
+        after = _int(request.query_params.get("after"), 0, low=0)
+        holds = [h for h in store.hold_means(row.key) if h["seq"] > after]
+        for h in holds:
+            h["written_utc"] = iso(h["written_utc"]) if isinstance(h["written_utc"], datetime) else h["written_utc"]
+        return SafeJSON({"progress": row.progress(), "holds": holds}, headers=SECURITY_HEADERS)
+
+    def artifact(request: Request) -> Response:
+        key, name = request.path_params["key"], request.path_params["name"]
+        if not _is_key(key) or not SAFE_NAME.match(name):
+            return Response("not found", status_code=404, media_type="text/plain")
+        found = store.artifact(key, name)
+        if found is None:
+            return Response("not found", status_code=404, media_type="text/plain")
+        media, content = found
+        if not media.startswith("image/png"):
+            media = "text/plain; charset=utf-8"        # a report is shown as text, never rendered as a page
+        return Response(content, media_type=media, headers=SECURITY_HEADERS)
+
+    def units(request: Request) -> Response:
+        return page(request, "units.html", units=store.units())
+
+    def unit(request: Request) -> Response:
+        serial = request.path_params["serial"]
+        data = questions.history(store, serial)
+        if not data["calibrations"] and serial not in store.names()["units"]:
+            return _problem(request, page, 404, f"no unit {serial!r} in this store")
+        return page(request, "unit.html", serial=serial, data=data,
+                    sensors=sorted({s for e in data["calibrations"] for s in e["sensors"]}))
+
+    def rigs(request: Request) -> Response:
+        serial = request.query_params.get("unit", "")
+        data = questions.compare_rigs(store, serial) if serial else None
+        return page(request, "rigs.html", serial=serial, data=data, names=store.names())
+
+    def pass_fail(request: Request) -> Response:
+        filters = Filters.parse(dict(request.query_params.items()))
+        return page(request, "passfail.html", data=questions.pass_fail(store, filters), filters=filters,
+                    names=store.names(), statuses=STATUSES)
+
+    def plotly_js(request: Request) -> Response:
+        return FileResponse(PLOTLY_JS, media_type="text/javascript", headers={"Cache-Control": "max-age=86400"})
+
+    routes = [Route("/", guarded(sessions)), Route("/api/progress", guarded(progress)),
+              Route("/session/{key}", guarded(session)), Route("/api/session/{key}", guarded(session_api)),
+              Route("/session/{key}/file/{name}", guarded(artifact)), Route("/units", guarded(units)),
+              Route("/unit/{serial:path}", guarded(unit)), Route("/rigs", guarded(rigs)),
+              Route("/pass-fail", guarded(pass_fail)), Route("/static/plotly.min.js", plotly_js),
+              Route("/favicon.ico", lambda request: Response(status_code=204)),
+              Mount("/static", StaticFiles(directory=HERE / "static"), name="static")]
+    return Starlette(routes=routes)
+
+
+class SafeJSON(JSONResponse):
+    def render(self, content) -> bytes:
+        return _dumps(content).encode()
+
+
+def _problem(request: Request, page, status: int, message: str) -> Response:
+    return page(request, "problem.html", status=status, message=message)
+
+
+def _session_or_404(store, key: str):
+    return store.session(key) if _is_key(key) else None
+
+
+def _is_key(text: str) -> bool:
+    try:
+        uuid.UUID(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _int(text: str | None, default: int, low: int = 1) -> int:
+    try:
+        return max(low, int(text)) if text else default
+    except ValueError:
+        return default
+
+
+def _dumps(obj, **kw) -> str:
+    """JSON for the page's scripts: NaN and infinities become null (JSON.parse refuses them)."""
+    return json.dumps(_finite(obj), default=_default, **kw)
+
+
+def _finite(value):
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {str(k): _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def _default(value):
+    if isinstance(value, datetime):
+        return iso(value)
+    return str(value)
+
+
+def _when(value) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, str):
+        return value
+    return value.astimezone(timezone.utc).strftime("%Y-%m-%d %H:%M:%S") + "Z"
+
+
+def _num(value, digits: int = 4) -> str:
+    if value is None:
+        return "-"
+    try:
+        return f"{float(value):.{digits}g}"
+    except (TypeError, ValueError):
+        return str(value)

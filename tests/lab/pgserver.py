@@ -1,0 +1,129 @@
+"""A real PostgreSQL server for the lab tests and benchmarks, from Debian's package.
+
+The data directory is under a fresh temporary folder, the server listens on loopback only, on a free port,
+with its socket in that folder, and trusts local connections (test data only). Run as root (CI is), the
+server runs as the `postgres` user the Debian package creates (initdb refuses root). `kill()` is a crash:
+SIGKILL to the postmaster and every backend it started; `start()` then runs crash recovery.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import pwd
+import shutil
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import psycopg
+
+SUPERUSER = "rig"
+
+
+def pg_bin() -> Path:
+    found = sorted(glob.glob("/usr/lib/postgresql/*/bin/initdb"), key=lambda p: int(p.split("/")[4]))
+    if os.environ.get("RIG_PG_BIN"):
+        return Path(os.environ["RIG_PG_BIN"])
+    if not found:
+        raise RuntimeError("PostgreSQL is not installed: scripts/test.sh installs it (apt-get install -y postgresql)")
+    return Path(found[-1]).parent
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class PgServer:
+    def __init__(self, fsync: bool = False) -> None:
+        self.bin = pg_bin()
+        self.root = Path(tempfile.mkdtemp(prefix="rig-pg-"))
+        self.data = self.root / "data"
+        self.port = free_port()
+        self.fsync = fsync
+        self.as_user: list[str] = []
+        if os.geteuid() == 0:
+            user = pwd.getpwnam("postgres")          # made by Debian's postgresql package
+            os.chown(self.root, user.pw_uid, user.pw_gid)
+            os.chmod(self.root, 0o700)
+            self.as_user = ["runuser", "-u", "postgres", "--"]
+        self._run(["initdb", "-D", str(self.data), "-U", SUPERUSER, "--auth=trust", "-E", "UTF8", "--no-sync"])
+
+    def _run(self, args: list[str], check: bool = True) -> subprocess.CompletedProcess:
+        cmd = [*self.as_user, str(self.bin / args[0]), *args[1:]]
+        done = subprocess.run(cmd, capture_output=True, text=True, cwd=self.root)
+        if check and done.returncode != 0:
+            raise RuntimeError(f"{' '.join(cmd)} failed ({done.returncode}): {done.stderr.strip()}\n"
+                               f"{self.log_tail()}")
+        return done
+
+    def log_tail(self, n: int = 20) -> str:
+        log = self.root / "server.log"
+        return "\n".join(log.read_text(errors="replace").splitlines()[-n:]) if log.exists() else ""
+
+    def start(self) -> None:
+        options = (f"-p {self.port} -k {self.root} -c listen_addresses=127.0.0.1 -c max_connections=200"
+                   + ("" if self.fsync else " -c fsync=off"))
+        self._run(["pg_ctl", "-D", str(self.data), "-l", str(self.root / "server.log"), "-w", "-t", "60",
+                   "-o", options, "start"])
+
+    def stop(self) -> None:
+        self._run(["pg_ctl", "-D", str(self.data), "-m", "fast", "-w", "stop"], check=False)
+
+    def pids(self) -> list[int]:
+        """The postmaster and its children (the backends and helpers it started)."""
+        pidfile = self.data / "postmaster.pid"
+        if not pidfile.exists():
+            return []
+        master = int(pidfile.read_text().split()[0])
+        children = []
+        for stat in glob.glob("/proc/[0-9]*/stat"):
+            try:
+                fields = Path(stat).read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == master:
+                children.append(int(stat.split("/")[2]))
+        return [master, *children]
+
+    def kill(self) -> None:
+        """A crash: SIGKILL to every process of the server, then wait until they are gone."""
+        pids = self.pids()
+        for pid in pids:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and any(Path(f"/proc/{p}").exists() and _alive(p) for p in pids):
+            time.sleep(0.05)
+
+    def url(self, db: str = "postgres", user: str = SUPERUSER) -> str:
+        return f"postgresql://{user}@127.0.0.1:{self.port}/{db}"
+
+    def sql(self, statement: str, db: str = "postgres", args=None) -> list[tuple]:
+        with psycopg.connect(self.url(db), autocommit=True) as conn:
+            cur = conn.execute(statement, args)
+            return cur.fetchall() if cur.description else []
+
+    def createdb(self, name: str) -> str:
+        self.sql(f'CREATE DATABASE "{name}"')
+        return self.url(name)
+
+    def destroy(self) -> None:
+        self.stop()
+        self.kill()
+        shutil.rmtree(self.root, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
