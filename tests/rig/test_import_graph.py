@@ -30,6 +30,12 @@ LAZY_ALLOWED = {
     ("rig.noise.statistics", "scipy.signal"): "start-up: scipy.signal only for a spectrum",
     ("rig.discrepancy.plots", "matplotlib"): "start-up: matplotlib only when plots are written",
     ("rig.discrepancy.plots", "matplotlib.pyplot"): "start-up: matplotlib only when plots are written",
+    ("rig.lab.plots", "matplotlib"): "start-up: matplotlib only when a history plot is drawn",
+    ("rig.lab.plots", "matplotlib.dates"): "start-up: matplotlib only when a history plot is drawn",
+    ("rig.lab.plots", "matplotlib.pyplot"): "start-up: matplotlib only when a history plot is drawn",
+    ("rig.lab.batch", "dask.distributed"): "start-up: Dask (the lab extra) only when a batch runs",
+    ("rig.lab.stores", "rig.lab.pg_store"): "psycopg's pool (the lab extra) only when a database URL is given; a "
+                                            "folder store works without the extra",
     ("procedures.paper_table1", "matplotlib"): "start-up: matplotlib only when the figure is drawn",
     ("procedures.paper_table1", "matplotlib.pyplot"): "start-up: matplotlib only when the figure is drawn",
     ("procedures.paper_table2", "matplotlib"): "start-up: matplotlib only when the figure is drawn",
