@@ -178,3 +178,18 @@ def test_an_out_folder_on_a_read_only_disk_is_bad_input(tmp_path):
         text = (tmp_path / err).read_text()
         assert (tmp_path / rc).read_text().strip() == "2", text
         assert "Traceback" not in text and ("Read-only file system" in text or "not writable" in text), text
+
+
+def test_a_stop_signal_after_the_session_ended_is_noted_not_obeyed():
+    """The exit code stays the stored end's: a SIGTERM racing a failed session's exit must not turn exit 3 into
+    death by signal (the fault campaign found it)."""
+    import os
+    import signal
+
+    from rig.commands.calibrate import late_stop_signals
+
+    with late_stop_signals() as late:
+        before = signal.getsignal(signal.SIGTERM)
+        os.kill(os.getpid(), signal.SIGTERM)
+    assert late == [signal.SIGTERM]
+    assert signal.getsignal(signal.SIGTERM) is not before

@@ -1,0 +1,182 @@
+"""What a recording's calibration predicts for data left out of its fit (issue 13.2): with no truth, the only fair
+score of ours against a peer's on the peer's own data.
+
+* Accelerometer, leave one pose out: refit without pose i, then the norm error `|a| - g` of the calibrated
+  samples of pose i (RMS over its samples, and the error of its mean).
+* Gyroscope, leave one turn out: refit without turn k, then the angle its calibrated rate sums to about the
+  nominal axis against the known angle (Ferraris: 360 deg).
+* Gyroscope, leave one motion out (imu_tk's criterion): refit without the motion between poses i and i+1, then
+  the angle between pose i's gravity direction carried across it by the calibrated gyro and pose i+1's.
+* Rests no segment names (a hand puts the unit down again before and after a turn): the norm error there is
+  held out for any calibration fitted on the segments, so it scores a peer that cannot refit without a face.
+
+Every score is computed from calibrated series (m/s^2, rad/s) on the rows of the poses, turns and motions that
+`calibrate_recording` found, so a peer's calibration (imucal's, imu_tk's published parameters) is scored on the
+very same data by `score_series`. A recording without segments (imu_tk's) is scored on the static poses its
+turntable-free calibration detects, written back as static segments (no axis up) so they can be left out.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from rig.calibration.recording import RecordingCalibration, calibrate_recording
+from rig.calibration.recording_fits import carried_errors
+from rig.calibration.result import TriadCalibration
+from rig.calibration.static_detect import moving_variance_norm, window_samples
+from rig.errors import CalibrationError
+from rig.session_data import MoveStream, SessionData
+
+FORMAT = "rig-heldout/1"
+REST_WINDOW_S = 0.5
+REST_K = 6.0                  # imu_tk's chosen threshold multiplier on its Xsens data
+REST_MIN_S = 1.0
+Calibrate = Callable[..., RecordingCalibration]
+
+
+@dataclass
+class Scores:
+    """Errors per pose, turn and motion; None where that piece could not be predicted (the reason in `notes`)."""
+
+    pose_rms: list[float | None]          # m/s^2, RMS of |a| - g over the pose's samples
+    pose_mean_error: list[float | None]   # m/s^2, |mean a| - g
+    turn_error_deg: list[float | None]
+    carry_error_deg: list[float | None]
+    rest_rms: list[float] = field(default_factory=list)          # m/s^2, at rests no segment names
+    rest_mean_error: list[float] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    format: str = FORMAT
+
+    def summary(self) -> dict:
+        """RMS over the pieces that were predicted, and how many of how many."""
+        def rms(values):
+            v = np.array([x for x in values if x is not None], dtype=float)
+            return {"rms": float(np.sqrt(np.mean(v ** 2))) if v.size else None, "n": int(v.size), "of": len(values)}
+        return {"accel_pose_rms": rms(self.pose_rms), "accel_pose_mean_error": rms(self.pose_mean_error),
+                "gyro_turn_deg": rms(self.turn_error_deg), "gyro_carry_deg": rms(self.carry_error_deg),
+                "accel_rest_rms": rms(self.rest_rms), "accel_rest_mean_error": rms(self.rest_mean_error)}
+
+
+def scoring_layout(session: SessionData, calibrate: Calibrate = calibrate_recording
+                   ) -> tuple[SessionData, RecordingCalibration]:
+    """The session whose poses can be left out, and its calibration on everything."""
+    rec = calibrate(session)
+    if session.meta.get("segments"):
+        return session, rec
+    laid = copy.copy(session)
+    laid.meta = dict(session.meta)
+    laid.meta["segments"] = [{"name": p.name, "t0": float(session.t[p.rows[0]]), "t1": float(session.t[p.rows[-1]]),
+                              "kind": "static"} for p in rec.poses]
+    return laid, calibrate(laid)
+
+
+def series(session: SessionData, sensors: dict[str, TriadCalibration]) -> dict[str, np.ndarray]:
+    """Calibrated accelerometer and gyroscope of every row."""
+    return {s: sensors[s].apply(session.raw[s]) for s in ("accel", "gyro") if s in sensors and s in session.raw}
+
+
+def pose_errors(accel: np.ndarray, rows: np.ndarray, g: float) -> tuple[float, float]:
+    a = accel[rows]
+    a = a[~np.isnan(a).any(axis=1)]
+    return (float(np.sqrt(np.mean((np.linalg.norm(a, axis=1) - g) ** 2))),
+            float(np.linalg.norm(a.mean(axis=0)) - g))
+
+
+def turn_error_deg(session: SessionData, gyro: np.ndarray, turn) -> float:
+    """Calibrated rate summed over the turn (rectangle rule, as the fit), about its axis, minus the known angle."""
+    w, t = gyro[turn.rows], session.t[turn.rows]
+    ok = ~np.isnan(w).any(axis=1)
+    w, t = w[ok], t[ok]
+    return float(np.degrees((w[:-1] * np.diff(t)[:, None]).sum(axis=0) @ turn.axis - turn.angle_rad))
+
+
+def carry_error_deg(session: SessionData, cal: dict[str, np.ndarray], a, b) -> float:
+    """Angle between pose a's gravity direction carried by the calibrated gyro to pose b and pose b's."""
+    g = []
+    for p in (a, b):
+        m = np.nanmean(cal["accel"][p.rows], axis=0)
+        g.append(m / np.linalg.norm(m))
+    idx = np.arange(a.rows[-1], b.rows[0] + 1)
+    w = cal["gyro"][idx]
+    ok = ~np.isnan(w).any(axis=1)
+    stream = MoveStream(0, session.t[idx][ok], w[ok], np.eye(3), np.eye(3))
+    return float(np.degrees(carried_errors(np.eye(3), np.zeros(3), [stream], g[0][None], g[1][None])[0]))
+
+
+def score_series(session: SessionData, rec: RecordingCalibration, cal: dict[str, np.ndarray]) -> Scores:
+    """A fixed calibration (its calibrated series) scored on every pose, turn and motion of `rec`: in-sample for
+    whatever that calibration was fitted on."""
+    errors = [pose_errors(cal["accel"], p.rows, session.gravity) for p in rec.poses]
+    rests = [pose_errors(cal["accel"], rows, session.gravity) for rows in unlabelled_rests(session, rec)]
+    has_gyro = "gyro" in cal
+    return Scores([e[0] for e in errors], [e[1] for e in errors],
+                  [turn_error_deg(session, cal["gyro"], t) if has_gyro else None for t in rec.turns],
+                  [carry_error_deg(session, cal, rec.poses[i], rec.poses[j]) if has_gyro else None
+                   for i, j in rec.carries], [e[0] for e in rests], [e[1] for e in rests])
+
+
+def unlabelled_rests(session: SessionData, rec: RecordingCalibration, k: float = REST_K) -> list[np.ndarray]:
+    """Rows of the rests outside every segment: samples whose windows of `REST_WINDOW_S` are as quiet as the
+    named poses' (accelerometer and, where recorded, gyroscope variance below k times the median over the poses:
+    imu_tk's detector with the poses as the quiet reference; the gyro sees a turn about the vertical that the
+    accelerometer does not), touching no segment (a rest that runs into a named pose is that pose's placement), at
+    least `REST_MIN_S` long after a quarter window is trimmed from each end (the hand settling)."""
+    if not rec.poses:
+        return []
+    win = window_samples(session.t, REST_WINDOW_S)
+    if win >= len(session.t):
+        return []
+    quiet = np.ones(len(session.t), dtype=bool)
+    for sensor in ("accel", "gyro"):
+        if sensor in session.raw:
+            y = session.raw[sensor]
+            level = float(np.median([np.linalg.norm(np.nanvar(y[p.rows], axis=0, ddof=1)) for p in rec.poses]))
+            quiet &= np.nan_to_num(moving_variance_norm(y, win), nan=np.inf) < k * level
+    named = np.zeros(len(session.t), dtype=bool)
+    for seg in session.meta.get("segments") or []:
+        named |= (session.t >= seg["t0"]) & (session.t <= seg["t1"])
+    edges = np.diff(np.concatenate([[0], quiet.astype(np.int8), [0]]))
+    out = []
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1):
+        if named[a:b + 1].any():
+            continue
+        a, b = a + win // 4, b - win // 4
+        if b > a and session.t[b] - session.t[a] >= REST_MIN_S:
+            out.append(np.arange(a, b + 1))
+    return out
+
+
+def heldout_scores(session: SessionData, calibrate: Calibrate = calibrate_recording) -> tuple[Scores, Scores]:
+    """(held-out, in-sample) scores of our calibration: every pose, turn and motion predicted by a refit without
+    it, and the same pieces under the fit on everything."""
+    laid, full = scoring_layout(session, calibrate)
+    inside = score_series(laid, full, series(laid, full.sensors))
+    accel_only = copy.copy(laid)
+    accel_only.raw = {s: y for s, y in laid.raw.items() if s != "gyro"}      # the accelerometer's fit needs no gyro
+    out = Scores([], [], [], [], inside.rest_rms, inside.rest_mean_error)     # no segment fitted the rests
+    for i, pose in enumerate(full.poses):
+        sensors = _refit(calibrate, accel_only, {"poses": [i]}, f"pose {pose.name}", out.notes)
+        rms, mean = pose_errors(series(laid, sensors)["accel"], pose.rows, laid.gravity) if sensors else (None, None)
+        out.pose_rms.append(rms)
+        out.pose_mean_error.append(mean)
+    for k, turn in enumerate(full.turns):
+        sensors = _refit(calibrate, laid, {"turns": [k]}, f"turn {turn.name}", out.notes)
+        out.turn_error_deg.append(turn_error_deg(laid, series(laid, sensors)["gyro"], turn) if sensors else None)
+    for c, (i, j) in enumerate(full.carries):
+        sensors = _refit(calibrate, laid, {"carries": [c]}, f"motion {full.poses[i].name}->{full.poses[j].name}",
+                         out.notes)
+        out.carry_error_deg.append(carry_error_deg(laid, series(laid, sensors), full.poses[i], full.poses[j])
+                                   if sensors else None)
+    return out, inside
+
+
+def _refit(calibrate: Calibrate, session: SessionData, leave_out: dict, what: str, notes: list[str]):
+    try:
+        return calibrate(session, leave_out=leave_out).sensors
+    except CalibrationError as e:
+        notes.append(f"{what} left out: {e}")
+        return None
