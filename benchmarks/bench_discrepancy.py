@@ -19,20 +19,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from fixtures.world.draw import hidden_effect_cases  # noqa: E402
 from procedures.replay import replay_comparison  # noqa: E402
 from rig.discrepancy import analyze  # noqa: E402
 from tests.discrepancy.conftest import blind, identifiable_magnitude, session_for  # noqa: E402
 
-EFFECTS = [
-    ("temperature_bias", "accel", {}), ("temperature_bias", "gyro", {}), ("temperature_bias", "mag", {}),
-    ("temperature_scale", "accel", {"research_env": True}), ("temperature_scale", "gyro", {"research_env": True}),
-    ("temperature_scale", "mag", {"research_env": True}),
-    ("bias_drift", "accel", {}), ("bias_drift", "gyro", {}), ("bias_drift", "mag", {}),
-    ("gyro_g_sensitivity", "gyro", {}), ("accel_scale_nonlinearity", "accel", {}),
-    ("table_magnetic_disturbance", "mag", {}), ("supply_ratiometric", "accel", {}),
-    ("earth_rotation", "gyro", {"hold_s": 30.0, "gyro_noise": 0.0018}), ("time_offset", "gyro", {}),
-    ("table_axis_misalignment", "rig", {}), ("gyro_scale_asymmetry", "gyro", {}), ("mag_offset_flip", "mag", {}),
-]
+EFFECTS = hidden_effect_cases()   # every drawable effect of the registry, with the session it needs
 
 
 def timing(repeats: int = 5) -> dict:

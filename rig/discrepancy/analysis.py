@@ -12,12 +12,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from rig.discrepancy.candidates import library
+from rig.discrepancy.candidates import CANDIDATES, library
 from rig.discrepancy.linear import TriadFit, fit_baseline
 from rig.discrepancy.observations import observations
+from rig.discrepancy.plots import write_plots
 from rig.discrepancy.search import (ALPHA, DBIC_MAX, GAIN_MIN, WILCOXON_MAX, Accepted, SensorState,
                                     calibrate_noise_scale, extended_fit, stepwise)
 from rig.discrepancy.stats import heldout_gate, nested_test
+from rig.effects import effect as vocabulary_entry
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
 from rig.units import SENSOR_UNITS
@@ -38,8 +40,9 @@ def build_states(session: SessionData) -> tuple[list[SensorState], list[str]]:
     states, skipped = [], []
     tumble = is_tumble_table(session)
     if not tumble:
+        geometry = [name for name, (_, needs) in CANDIDATES.items() if "tumble_table" in needs]
         skipped.append(f"table geometry {session.meta.get('table')} is not the tumble table of conventions.md: "
-                       "table_axis_misalignment and table_magnetic_disturbance not tested")
+                       f"{' and '.join(geometry)} not tested")
     for sensor in SENSORS:
         if sensor not in session.raw:
             continue
@@ -75,7 +78,7 @@ def analyze(session: SessionData, *, replay: Callable[..., dict] | None = None, 
             findings.append(finding(st, i, acc))
     findings = merge_rig_findings(findings)
     accepted_keys = {(a.cand.effect, st.sensor) for st in states for a in st.accepted}
-    candidates = [{"effect": t.cand.effect, "sensor": "rig" if t.cand.effect == "table_axis_misalignment" else t.state.sensor,
+    candidates = [{"effect": t.cand.effect, "sensor": reported_sensor(t.cand),
                    "tested_on": t.state.sensor,
                    "score": float(-np.log10(max(t.p_holm, 1e-300))), "p_holm": float(t.p_holm),
                    "delta_bic": float(t.test.dbic),
@@ -106,10 +109,14 @@ def analyze(session: SessionData, *, replay: Callable[..., dict] | None = None, 
     if replay is not None:
         report["replay"] = replay(session, states, extended)
     if plots_dir is not None:
-        from rig.discrepancy.plots import write_plots
         report["plots"] = write_plots(states, plots_dir)
     report["analysis_seconds"] = time.perf_counter() - t0
     return report
+
+
+def reported_sensor(cand) -> str:
+    """The sensor a finding is reported on: the rig itself for a table error, whichever triad saw it."""
+    return vocabulary_entry(cand.effect).reported_sensor(cand.sensor)
 
 
 def parameter_change(base: TriadFit, ext: TriadFit) -> dict:
@@ -143,7 +150,7 @@ def finding(st: SensorState, i: int, acc: Accepted) -> dict:
                 "model": acc.cand.note}
     if acc.scan_value is not None:
         evidence["t_flip_s"] = acc.scan_value
-    out = {"effect": acc.cand.effect, "sensor": "rig" if acc.cand.effect == "table_axis_misalignment" else st.sensor,
+    out = {"effect": acc.cand.effect, "sensor": reported_sensor(acc.cand),
            "magnitude": mag, "unit": acc.cand.unit, "uncertainty": unc,
            "heldout_rms_before": gate.phys_before[kind], "heldout_rms_after": gate.phys_after[kind],
            "heldout_unit": SENSOR_UNITS[st.sensor], "evidence": evidence}

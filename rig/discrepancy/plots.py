@@ -10,16 +10,9 @@ from rig.discrepancy.search import SensorState
 from rig.discrepancy.stats import orth, project
 
 
-def covariate(st: SensorState, effect: str) -> tuple[np.ndarray, str] | None:
-    o = st.obs
-    table = {"temperature_bias": (o.temp, "temperature, degC"), "temperature_scale": (o.temp, "temperature, degC"),
-             "bias_drift": (o.t, "time, s"), "mag_offset_flip": (o.t, "time, s"),
-             "supply_ratiometric": (o.vsupply, "supply, V"), "table_magnetic_disturbance": (o.angles[:, 1], "inner angle, deg"),
-             "table_axis_misalignment": (o.angles[:, 0], "outer angle, deg"),
-             "time_offset": (np.degrees(o.rate_dot), "reference d(omega)/dt, deg/s^2"),
-             "gyro_scale_asymmetry": (np.degrees(o.rate), "reference rate, deg/s"),
-             "accel_scale_nonlinearity": (o.f, "reference specific force, m/s^2")}
-    return table.get(effect)
+def covariate(st: SensorState, cand) -> tuple[np.ndarray, str] | None:
+    """The covariate the candidate's residual follows (its `against`), if it names one."""
+    return None if cand.against is None else cand.against(st.obs)
 
 
 def residual_before_after(st: SensorState, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -50,7 +43,7 @@ def write_plots(states: list[SensorState], folder: Path) -> list[str]:
     for st in states:
         for i, acc in enumerate(st.accepted):
             before, after = residual_before_after(st, i)
-            cov = covariate(st, acc.cand.effect)
+            cov = covariate(st, acc.cand)
             signal = before - after
             kinds = [(sel, name) for sel, name in ((~st.obs.is_move, "hold"), (st.obs.is_move, "move"))
                      if sel.any() and np.abs(signal[sel]).max() > 1e-3 * np.abs(signal).max()]

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rig.lab.identity import parse_utc
+
 
 def history_figure(data: dict, path: str | Path) -> None:
     import matplotlib
@@ -14,8 +16,6 @@ def history_figure(data: dict, path: str | Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.dates as mdates
     import matplotlib.pyplot as plt
-
-    from rig.lab.identity import parse_utc
 
     entries = data["calibrations"]
     sensors = sorted({s for e in entries for s in e["sensors"]})

@@ -5,6 +5,7 @@ batch results)."""
 from __future__ import annotations
 
 from rig.lab.errors import is_database_url
+from rig.lab.folder_store import FolderStore
 
 
 def open_store(store: str, *, write: bool = False):
@@ -13,6 +14,4 @@ def open_store(store: str, *, write: bool = False):
         from rig.lab.pg_store import PgStore
 
         return PgStore(store, write=write)
-    from rig.lab.folder_store import FolderStore
-
     return FolderStore(store)

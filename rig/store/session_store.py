@@ -25,6 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
+try:
+    import resource
+except ImportError:        # not on Windows: no file-size limit to name there
+    resource = None
+
 from rig.errors import InputError, RigError
 from rig.session_data import SessionData
 from rig.store import arrays
@@ -325,10 +330,8 @@ def _write_failure(path: Path) -> str:
     disk (sometimes said as an I/O error), or the disk itself."""
     folder = path.parent
     try:
-        import resource
-
         limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
-    except (ImportError, OSError, ValueError):
+    except (AttributeError, OSError, ValueError):
         limit = None
     if limit is not None and limit != getattr(resource, "RLIM_INFINITY", -1):
         sizes = [f.stat().st_size for f in folder.glob(path.name + "*") if f.is_file()]

@@ -32,6 +32,4 @@ def blind(session):
 
 def identifiable_magnitude(effect) -> float:
     """The part of the truth a session can see (see the candidates' docstrings)."""
-    if effect.name == "table_magnetic_disturbance":
-        return abs(float(effect.d[1]))
-    return float(effect.magnitude())
+    return effect.identifiable_magnitude()

@@ -1,0 +1,83 @@
+"""The effects vocabulary (`effects.md`, `rig-discrepancy/1`): one entry per effect, read by everything that names one.
+
+An entry says what the effect is called, which sensors it acts on, the unit its magnitude is reported in, and who
+looks for it: the discrepancy analysis of a turntable session (`family="model"`, a candidate test in
+`rig.discrepancy.candidates`) or the twin of a recording (`family="noise"`, fitted from the noise statistics by
+`procedures.twin_extension`). The simulated world's terms (`fixtures.world.effects`) and the analysis's candidate
+tests register themselves against these names; `tests/rig/test_effects_registry.py` checks that every entry has
+its simulator term, its draw range and its candidate test, or says why it has none.
+
+A new effect: one entry here, its simulator term (with its realistic range) and its candidate test; nothing else
+lists effect names.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rig.units import REPORT_UNITS
+
+TRIADS = ("accel", "gyro", "mag")
+TWIN_FITS_IT = "a noise or recording effect: the twin of a recording fits it from the noise statistics"
+
+
+@dataclass(frozen=True)
+class EffectSpec:
+    name: str
+    sensors: tuple[str, ...]          # "rig": the table itself, seen by every sensor
+    unit: str                         # of the magnitude; "{unit}" is the sensor's reported unit (rig.units)
+    cause: str
+    family: str = "model"             # "model": a candidate test on turntable sessions; "noise": the twin's
+    no_candidate: str = ""            # why no candidate test exists (empty: the analysis must have one)
+
+    def unit_for(self, sensor: str) -> str:
+        return self.unit.format(unit=REPORT_UNITS[sensor][0]) if "{unit}" in self.unit else self.unit
+
+    @property
+    def tested_on(self) -> tuple[str, ...]:
+        """The sensors whose data carry it: a table error shows in every triad."""
+        return TRIADS if self.sensors == ("rig",) else self.sensors
+
+    def reported_sensor(self, tested_on: str) -> str:
+        return "rig" if self.sensors == ("rig",) else tested_on
+
+
+def _noise(name: str, sensors: tuple[str, ...], unit: str, cause: str) -> EffectSpec:
+    return EffectSpec(name, sensors, unit, cause, family="noise", no_candidate=TWIN_FITS_IT)
+
+
+# The order is the order the analysis tries them in (and lists them in its report).
+EFFECTS: dict[str, EffectSpec] = {e.name: e for e in (
+    EffectSpec("temperature_bias", TRIADS, "{unit} per degC", "bias tempco"),
+    EffectSpec("temperature_scale", TRIADS, "ppm per degC", "sensitivity tempco"),
+    EffectSpec("bias_drift", TRIADS, "{unit} per hour", "bias wander over the session"),
+    EffectSpec("table_axis_misalignment", ("rig",), "deg", "table axes not orthogonal / encoder zero offsets"),
+    EffectSpec("accel_scale_nonlinearity", ("accel",), "1/(m/s^2)", "second-order response"),
+    EffectSpec("supply_ratiometric", ("accel",), "m/s^2 per V", "ratiometric output read against a fixed ADC reference"),
+    EffectSpec("accel_scale_asymmetry", ("accel",), "percent", "different scale for positive and negative specific "
+               "force (an asymmetric rest position of the proof mass)"),
+    EffectSpec("gyro_g_sensitivity", ("gyro",), "deg/s per g", "proof-mass response to specific force"),
+    EffectSpec("earth_rotation", ("gyro",), "deg/h", "the Earth's rotation, a real input the reference leaves out"),
+    EffectSpec("time_offset", ("gyro",), "s", "latency between sensor samples and the reference"),
+    EffectSpec("gyro_scale_asymmetry", ("gyro",), "percent", "different scale for positive and negative rates"),
+    EffectSpec("table_magnetic_disturbance", ("mag",), "uT", "field of a motor carried by the outer gimbal"),
+    EffectSpec("mag_offset_flip", ("mag",), "uT", "bridge magnetisation flipped by a strong field (set/reset)"),
+    _noise("white_noise_mismatch", TRIADS, "dimensionless", "noise density other than the simulator's"),
+    _noise("bias_instability", TRIADS, "{unit}", "flicker (1/f) noise of the bias"),
+    _noise("rate_random_walk", TRIADS, "{unit} per sqrt(s)", "the bias integrates white noise"),
+    _noise("quantisation", TRIADS, "{unit}", "coarse counts that the noise does not dither"),
+    _noise("hold_not_still", ("accel", "gyro"), "deg/s", "a static pose that moves (hand tremor, a soft mount)"),
+    _noise("saturation", TRIADS, "percent", "the output clips at its range"),
+)}
+
+
+def effect(name: str) -> EffectSpec:
+    """The vocabulary's entry; an unknown name is refused with the vocabulary listed."""
+    try:
+        return EFFECTS[name]
+    except KeyError:
+        raise ValueError(f"unknown effect {name!r}; the vocabulary is {sorted(EFFECTS)}") from None
+
+
+def unit_for(name: str, sensor: str) -> str:
+    return effect(name).unit_for(sensor)
