@@ -212,7 +212,8 @@ class SessionOrchestrator:
             cal_path = write_session_calibration(self.folder, result, gravity=session.gravity,
                                                  field_uT=session.field_uT, unit_serial=unit.get("serial"),
                                                  board=unit.get("board"),
-                                                 extra={"session": str(self.folder), "verdict": verdict})
+                                                 extra={"session": str(self.folder), "verdict": verdict},
+                                                 session=session)
             report = write_report(self.folder, session, result.sensors, gravity=session.gravity,
                                   field_uT=session.field_uT, truth=truth, limits=limits, evaluation=evaluation,
                                   metadata={**meta, "status": status, "status_reason": reason, "verdict": verdict})

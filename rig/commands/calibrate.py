@@ -220,7 +220,8 @@ def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: flo
                                      unit_serial=unit.get("serial"), board=unit.get("board"),
                                      extra={"source": {"format": "rig-session-sqlite/1", "path": str(folder),
                                                        "method": method, "settle_s": settle_s,
-                                                       "gyro_samples": gyro_samples}})
+                                                       "gyro_samples": gyro_samples}},
+                                     session=session)
     for line in result.summary:
         click.echo(line)
     for w in result.warnings:
