@@ -89,8 +89,9 @@ class SessionOrchestrator:
     """Runs one session folder. `build_rig` makes the rig; `progress(k, n, phase)` is told where it is."""
 
     def __init__(self, folder: Path, build_rig: RigFactory, *, method: str = "joint",
-                 progress: Progress | None = None) -> None:
+                 progress: Progress | None = None, plots: bool | None = None) -> None:
         self.folder = Path(folder)
+        self.plots = plots          # draw the report's figures (after the result is written); None: unless simulated
         self.build_rig = build_rig
         self.method = method
         self.progress = progress
@@ -214,9 +215,10 @@ class SessionOrchestrator:
                                                  board=unit.get("board"),
                                                  extra={"session": str(self.folder), "verdict": verdict},
                                                  session=session)
-            report = write_report(self.folder, session, result.sensors, gravity=session.gravity,
-                                  field_uT=session.field_uT, truth=truth, limits=limits, evaluation=evaluation,
-                                  metadata={**meta, "status": status, "status_reason": reason, "verdict": verdict})
+            report_args = dict(gravity=session.gravity, field_uT=session.field_uT, truth=truth, limits=limits,
+                               evaluation=evaluation,
+                               metadata={**meta, "status": status, "status_reason": reason, "verdict": verdict})
+            report = write_report(self.folder, session, result.sensors, plots=False, **report_args)
         except KeyboardInterrupt as exc:
             signum = getattr(exc, "signum", signal.SIGINT)
             reason = self._mark(store, "aborted", f"stopped by {signal_name(signum)} while calibrating; every hold is "
@@ -228,10 +230,25 @@ class SessionOrchestrator:
             return self._failed(store, exc, n_holds, prefix="calibration: ")
         reason = self._mark(store, status, reason, verdict=verdict, calibration=cal_path.name, report=report.name)
         store.release_reserve()
+        figures = self._figures(session, result, report_args, simulated=bool(meta.get("simulated")))
         return Outcome(self.folder, status, reason, verdict=verdict, holds=holds, n_holds=n_holds,
-                       summary=list(result.summary), warnings=list(result.warnings) + survived(store),
+                       summary=list(result.summary), warnings=list(result.warnings) + survived(store) + figures,
                        truth_lines=truth_errors(result.sensors, truth) if truth else [],
                        written=[cal_path, report])
+
+    def _figures(self, session, result, report_args: dict, *, simulated: bool) -> list[str]:
+        """Draw the report's figures, once the result is written and the status recorded (matplotlib is the slowest
+        part of a simulated session); a figure that cannot be drawn is a warning, never the session's end."""
+        if not (self.plots if self.plots is not None else not simulated):
+            return []
+        try:
+            write_report(self.folder, session, result.sensors, plots=True, **report_args)
+        except KeyboardInterrupt:
+            return ["stopped while drawing the report's figures; the result and the report's tables are written"]
+        except Exception as exc:
+            return [f"the report's figures could not be drawn ({type(exc).__name__}: {exc}); the result and the "
+                    "report's tables are written"]
+        return []
 
     # -- status ----------------------------------------------------------------------------------
     def _failed(self, store: SessionStore | None, exc: BaseException, n_holds: int, prefix: str = "",

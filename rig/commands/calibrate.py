@@ -74,7 +74,7 @@ def build_rig(config: RigConfig, spec):
 
 def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, seed: int = 0,
                    time_scale: float | None = None, method: str = "joint", progress: bool = True,
-                   resume: bool = False, trial: int = 0, echo=click.echo) -> int:
+                   resume: bool = False, trial: int = 0, plots: bool | None = None, echo=click.echo) -> int:
     """Run (or, with `resume`, finish) the session in `out` and show how it ended; returns the exit code.
 
     The orchestrator does the work; here are the progress bar, the stop signals and the exit code.
@@ -82,7 +82,7 @@ def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, se
     from procedures.orchestrator import RigSpec, SessionOrchestrator
 
     bar = _Progress(progress)
-    orchestrator = SessionOrchestrator(out, build_rig, method=method, progress=bar)
+    orchestrator = SessionOrchestrator(out, build_rig, method=method, progress=bar, plots=plots)
     try:
         with stop_signals_raise():
             try:
@@ -170,8 +170,10 @@ def show_outcome(outcome, echo=click.echo) -> int:
               help="With --from: a gyro sample is the rate at its time stamp (point) or its mean over the sample "
                    "period (mean); auto fits both and keeps the one that matches the known rotations better.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
+@click.option("--plots/--no-plots", default=None,
+              help="Draw the report's figures after the result is written (default: on a real rig, not with --sim).")
 def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scale, method, orientations,
-              gravity, settle_s, gyro_samples, no_progress):
+              gravity, settle_s, gyro_samples, no_progress, plots):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if from_dir or fmt == "imu_tk":
         from rig.pipeline import calibrate_from_dir
@@ -201,7 +203,7 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
         raise click.UsageError("--time-scale applies to --sim only")
     config = _config(config_path, orientations)
     sys.exit(run_session_to(out, config, sim=sim, seed=seed, time_scale=time_scale, method=method,
-                            progress=not no_progress))
+                            progress=not no_progress, plots=plots))
 
 
 def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: float, gravity: float | None,
@@ -243,11 +245,13 @@ def _config(path, orientations) -> RigConfig:
 @click.argument("session", type=click.Path(exists=True, file_okay=False, path_type=Path))
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True)
 @click.option("--no-progress", is_flag=True)
-def resume(session, method, no_progress):
+@click.option("--plots/--no-plots", default=None,
+              help="Draw the report's figures after the result is written (default: on a real rig, not with --sim).")
+def resume(session, method, no_progress, plots):
     """Finish an interrupted session: hold again at its last recorded orientation, record the rest, calibrate.
 
     Refused (exit 4) while another process works on the session or its turntable."""
-    sys.exit(run_session_to(session, None, method=method, progress=not no_progress, resume=True))
+    sys.exit(run_session_to(session, None, method=method, progress=not no_progress, resume=True, plots=plots))
 
 
 @click.command()
