@@ -97,8 +97,9 @@ class SessionOrchestrator:
         self.progress = progress
 
     # -- a new session ---------------------------------------------------------------------------
-    def start(self, config: RigConfig, spec: RigSpec) -> Outcome:
-        """Plan, check, create and record a new session in the folder, then finish it."""
+    def start(self, config: RigConfig, spec: RigSpec, plan: dict | None = None) -> Outcome:
+        """Plan, check, create and record a new session in the folder, then finish it. `plan`: what the planner
+        chose and predicted (`rig.planner.Plan.to_dict`), kept in the metadata beside what is achieved."""
         schedule = plan_for(config)
         problems = check_plan(config, schedule)
         if problems:
@@ -119,6 +120,8 @@ class SessionOrchestrator:
                 meta.update(trial=spec.trial, chips=rig.board.settings(), table_url=getattr(rig.table, "url", None))
                 if truth is not None:
                     meta["truth"] = truth
+                if plan is not None:
+                    meta["plan"] = plan
                 store = held.enter_context(SessionStore.create(self.folder, meta))
                 try:
                     if truth is not None:
@@ -213,7 +216,8 @@ class SessionOrchestrator:
             cal_path = write_session_calibration(self.folder, result, gravity=session.gravity,
                                                  field_uT=session.field_uT, unit_serial=unit.get("serial"),
                                                  board=unit.get("board"),
-                                                 extra={"session": str(self.folder), "verdict": verdict},
+                                                 extra={"session": str(self.folder), "verdict": verdict,
+                                                        **({"plan": meta["plan"]} if meta.get("plan") else {})},
                                                  session=session)
             report_args = dict(gravity=session.gravity, field_uT=session.field_uT, truth=truth, limits=limits,
                                evaluation=evaluation,
@@ -233,7 +237,8 @@ class SessionOrchestrator:
         figures = self._figures(session, result, report_args, simulated=bool(meta.get("simulated")))
         return Outcome(self.folder, status, reason, verdict=verdict, holds=holds, n_holds=n_holds,
                        summary=list(result.summary), warnings=list(result.warnings) + survived(store) + figures,
-                       truth_lines=truth_errors(result.sensors, truth) if truth else [],
+                       truth_lines=truth_errors(result.sensors, truth, (meta.get("plan") or {}).get("predicted"))
+                       if truth else [],
                        written=[cal_path, report])
 
     def _figures(self, session, result, report_args: dict, *, simulated: bool) -> list[str]:
@@ -321,8 +326,9 @@ def survived(store: SessionStore) -> list[str]:
             + f"; when and why are in the event table of {store.path}"]
 
 
-def truth_errors(sensors: dict, truth: dict) -> list[str]:
-    """Each sensor's H and B error against the simulator's truth, in per cent (Frobenius norm)."""
+def truth_errors(sensors: dict, truth: dict, predicted: dict | None = None) -> list[str]:
+    """Each sensor's H and B error against the simulator's truth, in per cent (Frobenius norm), beside the
+    planner's predicted standard deviation of H where the session was planned."""
     lines = []
     for name, cal in sensors.items():
         t = truth["sensors"].get(name)
@@ -331,5 +337,8 @@ def truth_errors(sensors: dict, truth: dict) -> list[str]:
         H, B = np.array(t["H"]), np.array(t["B"])
         eH = np.linalg.norm(cal.H - H) / np.linalg.norm(H) * 100
         eB = np.linalg.norm(cal.B - B) / max(np.linalg.norm(B), 1e-12) * 100
-        lines.append(f"{name}: against the simulator's truth: H error {eH:.4f} % (Frobenius), B error {eB:.4f} %")
+        line = f"{name}: against the simulator's truth: H error {eH:.4f} % (Frobenius), B error {eB:.4f} %"
+        if predicted and name in predicted:
+            line += f"; planned: H {predicted[name]['H_rel_pct']:.4f} % (predicted RMS)"
+        lines.append(line)
     return lines
