@@ -45,6 +45,7 @@ class MotionSettings:
 
 
 HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdog, cheap on the bus
+SEQUENTIAL_CHECK_S = 0.1   # how often a sequential hold asks whether it has what it needs
 
 
 class HoldFailed(RigError, RuntimeError):
@@ -215,13 +216,18 @@ def gyro_hole(rec: Recording, table_deg: np.ndarray, dt: float, tolerance_deg: f
 def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geometry: TableGeometry,
                  target: Orientation, step: int, m: MotionSettings, attempt: int = 1) -> Recording:
     """Record one attempt at hold `step`; stored unless the chips lost their configuration or the hold moved."""
-    ticks = int(round((m.sequential.max_s if m.sequential else m.hold_s) * m.rate_hz))
+    sequential = m.sequential is not None and bool(m.sequential.target)   # the first hold of a run: hold_s
+    ticks = int(round((m.sequential.max_s if sequential else m.hold_s) * m.rate_hz))
     chunk = max(int(round(HOLD_POLL_S * m.rate_hz)), 1)
+    every = max(int(round(SEQUENTIAL_CHECK_S * m.rate_hz)), 1) if sequential else chunk
     readings = [table.positions()]
-    for k in range(0, ticks, chunk):
-        sampler.run(min(chunk, ticks - k))
-        readings.append(table.positions())      # encoder log, and a keep-alive for the table's watchdog
-        if m.sequential is not None and m.sequential.done(sampler.so_far(), min(k + chunk, ticks) / m.rate_hz):
+    for k in range(every, ticks + every, every):
+        done = min(k, ticks)
+        sampler.run(done - (k - every))
+        ended = done >= ticks or (sequential and m.sequential.done(sampler.so_far(), done / m.rate_hz))
+        if ended or done % chunk == 0:
+            readings.append(table.positions())  # encoder log, and a keep-alive for the table's watchdog
+        if ended:
             break
     rec = sampler.take()
     log_read_errors(store, sampler)
