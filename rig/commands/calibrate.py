@@ -183,6 +183,9 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
               gravity, settle_s, gyro_samples, no_progress, plots, budget_s, target_h_pct, noise_from):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if from_dir or fmt == "imu_tk":
+        if budget_s is not None or target_h_pct is not None or noise_from is not None:
+            raise click.UsageError("--budget-s, --target-h-pct and --noise-from plan a session to run; a recorded "
+                                   "one (--from, --format imu_tk) is calibrated as it was recorded")
         from rig.pipeline import calibrate_from_dir
 
         if fmt == "imu_tk" and not (accel and gyro):
