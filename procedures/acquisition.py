@@ -180,6 +180,10 @@ class Sampler:
         self._begin()
         return rec
 
+    def so_far(self) -> dict[str, np.ndarray]:
+        """Every sensor's samples since the last take, as arrays (the recording goes on)."""
+        return {n: np.array(v, dtype=float).reshape(-1, 3) for n, v in self._rows.items()}
+
     @property
     def rows(self) -> int:
         """Rows recorded since the last take."""
@@ -255,3 +259,68 @@ def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 1
                 return (f"{name} {'xyz'[axis]}: a window's spread is {ratio[axis]:.1f} times the hold's typical "
                         f"(limit {k_std})")
     return None
+
+
+QUANTUM_COUNTS = 1.0    # raw samples are whole counts
+
+
+def mean_standard_error(y: np.ndarray, quantum: float = QUANTUM_COUNTS) -> np.ndarray:
+    """Standard error (3,) of the mean of a hold's samples y (n, 3), per axis, counting what white-noise
+    arithmetic would miss: quantisation, as `quantum^2 / 12` more variance per sample (a spread of a count or
+    less does not average away like white noise), and correlation between samples, through the effective
+    sample count of an AR(1) noise, `n (1 - rho) / (1 + rho)`, where the lag-1 autocorrelation rho is beyond
+    its chance level 2 / sqrt(n) (white noise then keeps its n). Outlier samples (`rig.outliers`) are set aside."""
+    y = np.asarray(y, dtype=float)
+    y = y[~np.isnan(y).any(axis=1)]
+    if len(y) < 8:
+        return np.full(3, np.inf)
+    y = y[~isolated_outliers(y)]
+    n = len(y)
+    d = y - y.mean(axis=0)
+    var = np.mean(d * d, axis=0)
+    rho = np.divide(np.mean(d[1:] * d[:-1], axis=0), var, out=np.zeros(3), where=var > 0)
+    rho = np.where(rho > 2 / np.sqrt(n), np.minimum(rho, 0.99), 0.0)
+    n_eff = n * (1 - rho) / (1 + rho)
+    return np.sqrt((var * n / (n - 1) + quantum**2 / 12) / n_eff)
+
+
+@dataclass
+class HoldTarget:
+    """Sequential holds (issue 15 item 3): a hold ends once the standard error of every static sensor's mean
+    (`mean_standard_error`, worst axis) is what the plan asked, between `min_s` and `max_s`. The plan asks for
+    the standard error that `hold_s` seconds give at the unit's own noise: the first hold of a run is held for
+    `hold_s` and sets each sensor's target; later holds end as soon as they have it, a noisier or correlated
+    hold (a draught, a vibrating floor) runs longer, up to `max_s`. A sensor's standard error is the RMS over
+    its axes, and it has what it needs within twice the sampling spread of that estimate (1 / sqrt(6 n) of it for
+    n samples): white noise ends its holds at `hold_s`, rather than wherever chance first favours them all."""
+
+    hold_s: float
+    min_s: float
+    max_s: float
+    sensors: tuple[str, ...] = ("accel", "mag", "gyro")
+    target: dict[str, float] = field(default_factory=dict)
+
+    def done(self, rec_samples: dict[str, np.ndarray], elapsed_s: float) -> bool:
+        """Whether the hold recorded so far (`rec_samples`, `elapsed_s` seconds of it) can end."""
+        if elapsed_s >= self.max_s - 1e-9:
+            return True
+        if not self.target:
+            return elapsed_s >= self.hold_s - 1e-9
+        if elapsed_s < self.min_s - 1e-9:
+            return False
+        return all(_rms_se(rec_samples[s]) <= self.target[s] * (1 + 2 / np.sqrt(6 * max(_count(rec_samples[s]), 1)))
+                   for s in self.target if s in rec_samples)
+
+    def learn(self, rec_samples: dict[str, np.ndarray]) -> None:
+        """The first full hold's standard errors are the targets of the holds after it."""
+        if not self.target:
+            self.target = {s: _rms_se(rec_samples[s]) for s in self.sensors
+                           if s in rec_samples and np.isfinite(_rms_se(rec_samples[s]))}
+
+
+def _rms_se(y: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(mean_standard_error(y) ** 2)))
+
+
+def _count(y: np.ndarray) -> int:
+    return int((~np.isnan(y).any(axis=1)).sum())

@@ -18,7 +18,7 @@ import numpy as np
 
 from drivers.contract import KeepsConfiguration
 from drivers.errors import DriverError
-from procedures.acquisition import Recording, Sampler, hold_has_motion, log_outliers, log_read_errors
+from procedures.acquisition import HoldTarget, Recording, Sampler, hold_has_motion, log_outliers, log_read_errors
 from rig.schedule import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles
@@ -41,9 +41,11 @@ class MotionSettings:
     mag_every: int = 2
     max_hold_attempts: int = 3
     watchdog_ms: int = 2000
+    sequential: HoldTarget | None = None     # sequential holds: end each when its means are as good as planned
 
 
 HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdog, cheap on the bus
+SEQUENTIAL_CHECK_S = 0.1   # how often a sequential hold asks whether it has what it needs
 
 
 class HoldFailed(RigError, RuntimeError):
@@ -214,12 +216,19 @@ def gyro_hole(rec: Recording, table_deg: np.ndarray, dt: float, tolerance_deg: f
 def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geometry: TableGeometry,
                  target: Orientation, step: int, m: MotionSettings, attempt: int = 1) -> Recording:
     """Record one attempt at hold `step`; stored unless the chips lost their configuration or the hold moved."""
-    ticks = int(round(m.hold_s * m.rate_hz))
+    sequential = m.sequential is not None and bool(m.sequential.target)   # the first hold of a run: hold_s
+    ticks = int(round((m.sequential.max_s if sequential else m.hold_s) * m.rate_hz))
     chunk = max(int(round(HOLD_POLL_S * m.rate_hz)), 1)
+    every = max(int(round(SEQUENTIAL_CHECK_S * m.rate_hz)), 1) if sequential else chunk
     readings = [table.positions()]
-    for k in range(0, ticks, chunk):
-        sampler.run(min(chunk, ticks - k))
-        readings.append(table.positions())      # encoder log, and a keep-alive for the table's watchdog
+    for k in range(every, ticks + every, every):
+        done = min(k, ticks)
+        sampler.run(done - (k - every))
+        ended = done >= ticks or (sequential and m.sequential.done(sampler.so_far(), done / m.rate_hz))
+        if ended or done % chunk == 0:
+            readings.append(table.positions())  # encoder log, and a keep-alive for the table's watchdog
+        if ended:
+            break
     rec = sampler.take()
     log_read_errors(store, sampler)
     check_configuration(board)
@@ -237,4 +246,6 @@ def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geo
                       table_deg=table_deg, commanded_deg=(target.outer_deg, target.inner_deg),
                       measured_deg=measured, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, attempt=attempt)
     log_outliers(store, step, rec)
+    if m.sequential is not None:
+        m.sequential.learn(rec.samples)
     return rec

@@ -89,15 +89,17 @@ class SessionOrchestrator:
     """Runs one session folder. `build_rig` makes the rig; `progress(k, n, phase)` is told where it is."""
 
     def __init__(self, folder: Path, build_rig: RigFactory, *, method: str = "joint",
-                 progress: Progress | None = None) -> None:
+                 progress: Progress | None = None, plots: bool | None = None) -> None:
         self.folder = Path(folder)
+        self.plots = plots          # draw the report's figures (after the result is written); None: unless simulated
         self.build_rig = build_rig
         self.method = method
         self.progress = progress
 
     # -- a new session ---------------------------------------------------------------------------
-    def start(self, config: RigConfig, spec: RigSpec) -> Outcome:
-        """Plan, check, create and record a new session in the folder, then finish it."""
+    def start(self, config: RigConfig, spec: RigSpec, plan: dict | None = None) -> Outcome:
+        """Plan, check, create and record a new session in the folder, then finish it. `plan`: what the planner
+        chose and predicted (`rig.planner.Plan.to_dict`), kept in the metadata beside what is achieved."""
         schedule = plan_for(config)
         problems = check_plan(config, schedule)
         if problems:
@@ -118,6 +120,8 @@ class SessionOrchestrator:
                 meta.update(trial=spec.trial, chips=rig.board.settings(), table_url=getattr(rig.table, "url", None))
                 if truth is not None:
                     meta["truth"] = truth
+                if plan is not None:
+                    meta["plan"] = plan
                 store = held.enter_context(SessionStore.create(self.folder, meta))
                 try:
                     if truth is not None:
@@ -212,10 +216,13 @@ class SessionOrchestrator:
             cal_path = write_session_calibration(self.folder, result, gravity=session.gravity,
                                                  field_uT=session.field_uT, unit_serial=unit.get("serial"),
                                                  board=unit.get("board"),
-                                                 extra={"session": str(self.folder), "verdict": verdict})
-            report = write_report(self.folder, session, result.sensors, gravity=session.gravity,
-                                  field_uT=session.field_uT, truth=truth, limits=limits, evaluation=evaluation,
-                                  metadata={**meta, "status": status, "status_reason": reason, "verdict": verdict})
+                                                 extra={"session": str(self.folder), "verdict": verdict,
+                                                        **({"plan": meta["plan"]} if meta.get("plan") else {})},
+                                                 session=session)
+            report_args = dict(gravity=session.gravity, field_uT=session.field_uT, truth=truth, limits=limits,
+                               evaluation=evaluation,
+                               metadata={**meta, "status": status, "status_reason": reason, "verdict": verdict})
+            report = write_report(self.folder, session, result.sensors, plots=False, **report_args)
         except KeyboardInterrupt as exc:
             signum = getattr(exc, "signum", signal.SIGINT)
             reason = self._mark(store, "aborted", f"stopped by {signal_name(signum)} while calibrating; every hold is "
@@ -227,10 +234,26 @@ class SessionOrchestrator:
             return self._failed(store, exc, n_holds, prefix="calibration: ")
         reason = self._mark(store, status, reason, verdict=verdict, calibration=cal_path.name, report=report.name)
         store.release_reserve()
+        figures = self._figures(session, result, report_args, simulated=bool(meta.get("simulated")))
         return Outcome(self.folder, status, reason, verdict=verdict, holds=holds, n_holds=n_holds,
-                       summary=list(result.summary), warnings=list(result.warnings) + survived(store),
-                       truth_lines=truth_errors(result.sensors, truth) if truth else [],
+                       summary=list(result.summary), warnings=list(result.warnings) + survived(store) + figures,
+                       truth_lines=truth_errors(result.sensors, truth, (meta.get("plan") or {}).get("predicted"))
+                       if truth else [],
                        written=[cal_path, report])
+
+    def _figures(self, session, result, report_args: dict, *, simulated: bool) -> list[str]:
+        """Draw the report's figures, once the result is written and the status recorded (matplotlib is the slowest
+        part of a simulated session); a figure that cannot be drawn is a warning, never the session's end."""
+        if not (self.plots if self.plots is not None else not simulated):
+            return []
+        try:
+            write_report(self.folder, session, result.sensors, plots=True, **report_args)
+        except KeyboardInterrupt:
+            return ["stopped while drawing the report's figures; the result and the report's tables are written"]
+        except Exception as exc:
+            return [f"the report's figures could not be drawn ({type(exc).__name__}: {exc}); the result and the "
+                    "report's tables are written"]
+        return []
 
     # -- status ----------------------------------------------------------------------------------
     def _failed(self, store: SessionStore | None, exc: BaseException, n_holds: int, prefix: str = "",
@@ -303,8 +326,9 @@ def survived(store: SessionStore) -> list[str]:
             + f"; when and why are in the event table of {store.path}"]
 
 
-def truth_errors(sensors: dict, truth: dict) -> list[str]:
-    """Each sensor's H and B error against the simulator's truth, in per cent (Frobenius norm)."""
+def truth_errors(sensors: dict, truth: dict, predicted: dict | None = None) -> list[str]:
+    """Each sensor's H and B error against the simulator's truth, in per cent (Frobenius norm), beside the
+    planner's predicted standard deviation of H where the session was planned."""
     lines = []
     for name, cal in sensors.items():
         t = truth["sensors"].get(name)
@@ -313,5 +337,8 @@ def truth_errors(sensors: dict, truth: dict) -> list[str]:
         H, B = np.array(t["H"]), np.array(t["B"])
         eH = np.linalg.norm(cal.H - H) / np.linalg.norm(H) * 100
         eB = np.linalg.norm(cal.B - B) / max(np.linalg.norm(B), 1e-12) * 100
-        lines.append(f"{name}: against the simulator's truth: H error {eH:.4f} % (Frobenius), B error {eB:.4f} %")
+        line = f"{name}: against the simulator's truth: H error {eH:.4f} % (Frobenius), B error {eB:.4f} %"
+        if predicted and name in predicted:
+            line += f"; planned: H {predicted[name]['H_rel_pct']:.4f} % (predicted RMS)"
+        lines.append(line)
     return lines

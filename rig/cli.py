@@ -22,7 +22,7 @@ SUBCOMMANDS: dict[str, tuple[str, str] | str] = {
     "resume": ("rig.commands.calibrate:resume",
                "Finish an interrupted session: hold again at its last recorded orientation, record the rest, "
                "calibrate."),
-    "plan": ("rig.commands.calibrate:plan", "Dry run: the schedule, its observability and the ETA."),
+    "plan": ("rig.commands.plan:plan", "Dry run: the schedule, its observability, its predicted accuracy and the ETA."),
     "export": ("rig.commands.export:export",
                "Write the session in SESSION as meta.json + samples.csv in the folder given by --to."),
     "repeatability": ("rig.commands.repeatability:repeatability",

@@ -41,6 +41,9 @@ class ScheduleConfig:
     rate_hz: float = 100.0
     mag_every: int = 2
     max_hold_attempts: int = 3
+    sequential: bool = False           # sequential holds (procedures.acquisition.HoldTarget)
+    hold_min_s: float = 1.5            # their shortest hold (bump detection judges three 0.5 s windows)
+    hold_max_s: float = 0.0            # their longest; 0: three times hold_s
 
 
 @dataclass
@@ -173,6 +176,12 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
             raise ValueError(f"{where}: [turntable] {key} must be positive")
     if cfg.schedule.hold_s <= 0 or cfg.schedule.rate_hz <= 0:
         raise ValueError(f"{where}: [schedule] hold_s and rate_hz must be positive")
+    s = cfg.schedule
+    if not isinstance(s.sequential, bool):
+        raise ValueError(f"{where}: [schedule] sequential = {s.sequential!r} must be true or false")
+    if s.sequential and (not 0 < s.hold_min_s <= s.hold_s or not (s.hold_max_s == 0 or s.hold_max_s >= s.hold_s)):
+        raise ValueError(f"{where}: [schedule] hold_min_s = {s.hold_min_s} must be in (0, hold_s] and hold_max_s = "
+                         f"{s.hold_max_s} 0 (three times hold_s) or at least hold_s = {s.hold_s}")
     try:
         validate_limits(cfg.limits)
     except LimitsError as e:

@@ -1,4 +1,4 @@
-"""`rig calibrate`, `rig resume`, `rig plan`: run a session (real or simulated) or calibrate recorded data."""
+"""`rig calibrate`, `rig resume`: run a session (real or simulated) or calibrate recorded data."""
 
 from __future__ import annotations
 
@@ -8,8 +8,16 @@ from pathlib import Path
 
 import click
 
-from rig.exits import CommandError, Exit, FiniteFloat, aborted, code_for, command_error, plain
 from rig.config import RigConfig, load_config
+from rig.exits import (
+    CommandError,
+    Exit,
+    FiniteFloat,
+    aborted,
+    code_for,
+    command_error,
+    plain,
+)
 
 
 class _Progress:
@@ -74,7 +82,8 @@ def build_rig(config: RigConfig, spec):
 
 def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, seed: int = 0,
                    time_scale: float | None = None, method: str = "joint", progress: bool = True,
-                   resume: bool = False, trial: int = 0, echo=click.echo) -> int:
+                   resume: bool = False, trial: int = 0, plots: bool | None = None, plan: dict | None = None,
+                   echo=click.echo) -> int:
     """Run (or, with `resume`, finish) the session in `out` and show how it ended; returns the exit code.
 
     The orchestrator does the work; here are the progress bar, the stop signals and the exit code.
@@ -82,14 +91,14 @@ def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, se
     from procedures.orchestrator import RigSpec, SessionOrchestrator
 
     bar = _Progress(progress)
-    orchestrator = SessionOrchestrator(out, build_rig, method=method, progress=bar)
+    orchestrator = SessionOrchestrator(out, build_rig, method=method, progress=bar, plots=plots)
     try:
         with stop_signals_raise():
             try:
                 if resume:
                     outcome = orchestrator.resume()
                 else:
-                    outcome = orchestrator.start(config, RigSpec(sim, seed if sim else None, time_scale, trial))
+                    outcome = orchestrator.start(config, RigSpec(sim, seed if sim else None, time_scale, trial), plan)
             finally:
                 bar.close()
     except KeyboardInterrupt as exc:          # a stop before the session existed: nothing to mark
@@ -196,10 +205,21 @@ def show_outcome(outcome, echo=click.echo) -> int:
                    "it runs (recorded locally first; `rig push` finishes what the network kept back), or a folder "
                    "of session folders that --out must lie in.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
+@click.option("--plots/--no-plots", default=None,
+              help="Draw the report's figures after the result is written (default: on a real rig, not with --sim).")
+@click.option("--budget-s", type=FiniteFloat(1.0, 36000.0), default=None,
+              help="Run the plan of `rig plan --budget-s`: the most accurate that fits this table time.")
+@click.option("--target-h-pct", type=FiniteFloat(0.0, 100.0, low_open=True), default=None,
+              help="Run the plan of `rig plan --target-h-pct`: the shortest predicted to reach this H error.")
+@click.option("--noise-from", type=click.Path(exists=True, file_okay=False), default=None,
+              help="With --budget-s/--target-h-pct: the noise of a calibrated session of this unit.")
 def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scale, method, orientations,
-              gravity, settle_s, gyro_samples, store, no_progress):
+              gravity, settle_s, gyro_samples, store, no_progress, plots, budget_s, target_h_pct, noise_from):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if from_dir or fmt == "imu_tk":
+        if budget_s is not None or target_h_pct is not None or noise_from is not None:
+            raise click.UsageError("--budget-s, --target-h-pct and --noise-from plan a session to run; a recorded "
+                                   "one (--from, --format imu_tk) is calibrated as it was recorded")
         from rig.pipeline import calibrate_from_dir
 
         if fmt == "imu_tk" and not (accel and gyro):
@@ -226,9 +246,23 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
     if time_scale is not None and not sim:
         raise click.UsageError("--time-scale applies to --sim only")
     config = _config(config_path, orientations)
+    plan = None
+    if budget_s is not None or target_h_pct is not None:
+        from rig.commands.plan import planned_config, predicted_lines
+
+        if budget_s is not None and target_h_pct is not None:
+            raise click.UsageError("give --budget-s or --target-h-pct, not both")
+        config, chosen, default, _ = planned_config(config, budget_s, target_h_pct, noise_from)
+        click.echo(f"plan: {chosen.orientations} orientations, holds of {chosen.hold_s} s, moves at up to "
+                   f"{chosen.speed_dps:g} deg/s; estimated rig time {chosen.eta_s:.0f} s; predicted:")
+        for line in predicted_lines(chosen, default):
+            click.echo(line)
+        plan = chosen.to_dict()
+    elif noise_from is not None:
+        raise click.UsageError("--noise-from goes with --budget-s or --target-h-pct")
     with mirrored(out, store or config.store.get("url")):
         code = run_session_to(out, config, sim=sim, seed=seed, time_scale=time_scale, method=method,
-                              progress=not no_progress)
+                              progress=not no_progress, plots=plots, plan=plan)
     sys.exit(code)
 
 
@@ -272,7 +306,8 @@ def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: flo
                                      unit_serial=unit.get("serial"), board=unit.get("board"),
                                      extra={"source": {"format": "rig-session-sqlite/1", "path": str(folder),
                                                        "method": method, "settle_s": settle_s,
-                                                       "gyro_samples": gyro_samples}})
+                                                       "gyro_samples": gyro_samples}},
+                                     session=session)
     for line in result.summary:
         click.echo(line)
     for w in result.warnings:
@@ -296,34 +331,12 @@ def _config(path, orientations) -> RigConfig:
 @click.option("--store", "store", default=None, metavar="URL",
               help="Mirror the session into the lab's postgresql:// store as it runs (as calibrate --store).")
 @click.option("--no-progress", is_flag=True)
-def resume(session, method, store, no_progress):
+@click.option("--plots/--no-plots", default=None,
+              help="Draw the report's figures after the result is written (default: on a real rig, not with --sim).")
+def resume(session, method, store, no_progress, plots):
     """Finish an interrupted session: hold again at its last recorded orientation, record the rest, calibrate.
 
     Refused (exit 4) while another process works on the session or its turntable."""
     with mirrored(session, store):
-        code = run_session_to(session, None, method=method, progress=not no_progress, resume=True)
+        code = run_session_to(session, None, method=method, progress=not no_progress, resume=True, plots=plots)
     sys.exit(code)
-
-
-@click.command()
-@click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False))
-@click.option("--orientations", type=click.IntRange(9, 64), default=None)
-def plan(config_path, orientations):
-    """Dry run: the schedule, its observability and the ETA. Nothing moves."""
-    from rig.schedule import estimate_duration
-    from procedures.session import check_plan, plan_for
-
-    config = _config(config_path, orientations)
-    schedule = plan_for(config)
-    t, s = config.turntable, config.schedule
-    click.echo(f"{len(schedule)} orientations on a {config.board} board, holds of {s.hold_s} s at {s.rate_hz} Hz")
-    click.echo("  #   outer_deg   inner_deg")
-    for k, o in enumerate(schedule):
-        click.echo(f"{k:3d} {o.outer_deg:11.3f} {o.inner_deg:11.3f}")
-    problems = check_plan(config, schedule)
-    click.echo("observability: " + ("every axis excited" if not problems else "; ".join(problems)))
-    eta = estimate_duration(schedule, hold_s=s.hold_s, speed_dps=t.speed_dps, accel_dps2=t.accel_dps2,
-                            settle_s=t.settle_s)
-    click.echo(f"estimated rig time: {eta:.0f} s ({eta / 60:.1f} min)")
-    if problems:
-        sys.exit(Exit.FAIL)

@@ -96,6 +96,7 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
     if session_dir is None and fmt == "interchange":
         raise ValueError("an interchange session needs its folder")
     session_dir = Path(session_dir) if session_dir is not None else Path.cwd()
+    session = None
     if fmt == "interchange":
         session = read_session(session_dir)
         if gravity is not None:
@@ -112,7 +113,7 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
         raise ValueError(f"fmt must be 'interchange' or 'imu_tk', got {fmt!r}")
 
     out_path = write_session_calibration(out_dir, result, gravity=g, field_uT=field_uT, unit_serial=unit_serial,
-                                         board=board, extra={"source": source})
+                                         board=board, extra={"source": source}, session=session)
     for line in result.summary:
         echo(line)
     for w in result.warnings:

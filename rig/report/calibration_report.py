@@ -16,7 +16,6 @@ import numpy as np
 
 from rig.calibration.result import TriadCalibration
 from rig.io.atomic import write_text_atomic
-from rig.report import plots
 from rig.report.limits import LimitCheck, check_limits, validate_limits, verdict
 from rig.report.markdown import cell, number, table
 from rig.report.metrics import METRICS, STATIC_SENSORS, SensorMetrics, sensor_metrics
@@ -57,13 +56,15 @@ def evaluate(session: SessionData, calibrations: dict[str, TriadCalibration], *,
 
 def write_report(out_dir: Path, session: SessionData, calibrations: dict[str, TriadCalibration], *,
                  gravity: float, field_uT: float | None, truth: dict | None = None, limits: dict | None = None,
-                 metadata: dict | None = None, settle_s: float = 0.5, evaluation: Evaluation | None = None) -> Path:
+                 metadata: dict | None = None, settle_s: float = 0.5, evaluation: Evaluation | None = None,
+                 plots: bool = True) -> Path:
     """Write `out_dir/report.md` (+ PNGs, `report.json`) and return the path of `report.md`.
 
     `truth` = {"sensors": {name: {"B": [3], "H": [[3x3]]}}} for simulated sessions; `limits` as in
     `rig.report.limits`; `metadata` defaults to `session.meta`; `settle_s` is dropped at the start of
     every hold before its mean is taken (as the calibration does). `evaluation` (from `evaluate` with the
-    same arguments) saves computing the metrics twice.
+    same arguments) saves computing the metrics twice. `plots=False`: the tables only (matplotlib is neither
+    imported nor run; a session draws its figures on demand, after its result is written).
     """
     out_dir = Path(out_dir)
     truths = truth_per_sensor(truth)
@@ -75,8 +76,10 @@ def write_report(out_dir: Path, session: SessionData, calibrations: dict[str, Tr
     parts = [f"# Calibration report\n\n**Verdict: {verdict(checks)}** ({_passed(checks)})",
              _session_section(session, metadata if metadata is not None else session.meta, gravity, field_uT),
              _acceptance_section(checks)]
+    if not plots:
+        parts.append("Figures: not drawn for this report (they are drawn on demand: `--plots`).")
     for sensor, cal in calibrations.items():
-        parts.append(_sensor_section(out_dir, sensor, cal, metrics[sensor], truths.get(sensor)))
+        parts.append(_sensor_section(out_dir, sensor, cal, metrics[sensor], truths.get(sensor), plots))
     write_text_atomic(out_dir / "report.json", json.dumps(_summary(checks, metrics), indent=2) + "\n")
     return write_text_atomic(out_dir / "report.md", "\n\n".join(parts) + "\n")
 
@@ -133,7 +136,7 @@ def _acceptance_section(checks: list[LimitCheck]) -> str:
 
 
 def _sensor_section(out_dir: Path, sensor: str, cal: TriadCalibration, m: SensorMetrics,
-                    truth: dict[str, np.ndarray] | None) -> str:
+                    truth: dict[str, np.ndarray] | None, plots: bool = True) -> str:
     text = [f"## {sensor} [{m.unit}]",
             f"method {cal.method}; iterations {cal.iterations}; converged {cell(cal.converged)}; "
             f"det(H) = {number(np.linalg.det(cal.H))}"]
@@ -143,12 +146,12 @@ def _sensor_section(out_dir: Path, sensor: str, cal: TriadCalibration, m: Sensor
                for name, value in m.values.items()]
     text.append(f"### {sensor} fit quality\n\n" + table(["metric", "value", "unit", "meaning"], quality))
     if m.static is not None and m.static.steps.size:
-        text.append(_static_section(out_dir, sensor, cal, m))
+        text.append(_static_section(out_dir, sensor, cal, m, plots))
     elif sensor in STATIC_SENSORS:
         text.append(f"No hold means of {sensor} checked: "
                     + ("no holds in the session." if m.static is not None else "no reference magnitude given."))
     if m.moves is not None and m.moves.steps.size:
-        text.append(_moves_section(out_dir, sensor, m))
+        text.append(_moves_section(out_dir, sensor, m, plots))
     return "\n\n".join(text)
 
 
@@ -171,34 +174,42 @@ def _parameter_table(cal: TriadCalibration, truth: dict[str, np.ndarray] | None)
     return table(["parameter", "value", "std", "truth", "error"], rows)
 
 
-def _static_section(out_dir: Path, sensor: str, cal: TriadCalibration, m: SensorMetrics) -> str:
+def _static_section(out_dir: Path, sensor: str, cal: TriadCalibration, m: SensorMetrics, plots: bool = True) -> str:
     s = m.static
     norms = s.norm_error + s.reference
     rows = [[int(j), number(n), number(e), *map(number, r)] for j, n, e, r in zip(s.steps, norms, s.norm_error, s.residual)]
     v = s.world_vector
     elevation = math.degrees(math.asin(np.clip(v[2] / np.linalg.norm(v), -1, 1))) if np.linalg.norm(v) else float("nan")
-    norms_png = plots.static_norms_plot(out_dir / f"{sensor}_norms.png", sensor, m.unit, s)
-    ellipsoid_png = plots.ellipsoid_plot(out_dir / f"{sensor}_ellipsoid.png", sensor, m.unit, s, cal)
+    figures = []
+    if plots:
+        from rig.report import plots as figures_of        # matplotlib only when figures are drawn
+
+        norms_png = figures_of.static_norms_plot(out_dir / f"{sensor}_norms.png", sensor, m.unit, s)
+        ellipsoid_png = figures_of.ellipsoid_plot(out_dir / f"{sensor}_ellipsoid.png", sensor, m.unit, s, cal)
+        figures = [f"![{sensor} norms and residuals per orientation]({norms_png.name})",
+                   f"![{sensor} hold means against the fitted ellipsoid and the sphere]({ellipsoid_png.name})"]
     return "\n\n".join([
         f"### {sensor} per orientation",
         f"Reference magnitude {number(s.reference)} {m.unit}. World vector v = mean_j R_j u_j = "
         f"[{', '.join(number(x, 6) for x in v)}] {m.unit} (|v| = {number(np.linalg.norm(v), 6)}, "
         f"elevation {number(elevation, 6)} deg).",
-        table(["step", "norm", "norm_error", "residual_x", "residual_y", "residual_z"], rows),
-        f"![{sensor} norms and residuals per orientation]({norms_png.name})",
-        f"![{sensor} hold means against the fitted ellipsoid and the sphere]({ellipsoid_png.name})"])
+        table(["step", "norm", "norm_error", "residual_x", "residual_y", "residual_z"], rows), *figures])
 
 
-def _moves_section(out_dir: Path, sensor: str, m: SensorMetrics) -> str:
+def _moves_section(out_dir: Path, sensor: str, m: SensorMetrics, plots: bool = True) -> str:
     mv = m.moves
     rows = [[int(j), number(d), number(r), number(i), number(e)]
             for j, d, r, i, e in zip(mv.steps, mv.duration_s, mv.reference_deg, mv.integrated_deg, mv.error_deg)]
-    png = plots.moves_plot(out_dir / f"{sensor}_moves.png", mv)
+    figures = []
+    if plots:
+        from rig.report import plots as figures_of
+
+        png = figures_of.moves_plot(out_dir / f"{sensor}_moves.png", mv)
+        figures = [f"![{sensor} integrated rotation per move]({png.name})"]
     return "\n\n".join([
         f"### {sensor} per move",
         "Calibrated rates H (y - B) integrated over each move against the reference rotation R_j^T R_j+1.",
-        table(["from_step", "duration_s", "reference_deg", "integrated_deg", "error_deg"], rows),
-        f"![{sensor} integrated rotation per move]({png.name})"])
+        table(["from_step", "duration_s", "reference_deg", "integrated_deg", "error_deg"], rows), *figures])
 
 
 def _summary(checks: list[LimitCheck], metrics: dict[str, SensorMetrics]) -> dict:

@@ -1,0 +1,130 @@
+"""`rig plan`: the schedule of a session, its observability, its predicted accuracy and its ETA; nothing moves.
+
+With `--budget-s S` or `--target-h-pct P` the planner (`rig.planner`) chooses the orientations, hold length and
+move profile; `rig calibrate --sim --budget-s S` runs what it chose. The noise the bound needs is the built-in
+simulated units' unless `--noise-from SESSION` names a session of the unit (its hold spreads, calibrated).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from rig.exits import CommandError, Exit, FiniteFloat, plain
+
+BUDGET_HELP = "Plan for this many seconds of table time (the most accurate plan that fits)."
+TARGET_HELP = "Plan for this H error (relative RMS, %, every sensor): the shortest plan predicted to reach it."
+NOISE_HELP = "Take the noise from a session of this unit (its folder, with calibration.json) instead of the default."
+
+
+def planned_config(config, budget_s: float | None, target_h_pct: float | None, noise_from: str | None):
+    """(the configuration with the planner's choice applied, the plan, the default plan), or the configuration's
+    own plan when neither a budget nor a target is given."""
+    from rig import planner
+    from rig.errors import InputError
+
+    noise = noise_of_session(Path(noise_from)) if noise_from else planner.NoiseModel()
+    try:
+        default = planner.default_plan(config, noise)
+        if budget_s is None and target_h_pct is None:
+            return config, default, default, noise
+        plan = (planner.plan_for_budget(config, budget_s, noise) if budget_s is not None
+                else planner.plan_for_target(config, target_h_pct, noise))
+    except InputError as exc:
+        raise CommandError(plain(str(exc)), Exit.BAD_INPUT) from None
+    except ValueError as exc:          # the configuration's own schedule cannot be laid out
+        raise CommandError(f"{config.source}: {plain(str(exc))}", Exit.BAD_INPUT) from None
+    return planner.applied(config, plan), plan, default, noise
+
+
+def noise_of_session(folder: Path):
+    """The white noise per sample of each sensor of a recorded session, in calibrated units: the median over its
+    holds of each axis's spread, through the session's own calibration (`calibration.json` beside it)."""
+    import numpy as np
+
+    from rig import planner
+    from rig.commands.sessions import read_any_session
+    from rig.errors import RigError
+
+    cal_path = folder / "calibration.json"
+    try:
+        cal = json.loads(cal_path.read_text())
+        session = read_any_session(folder)
+    except FileNotFoundError as exc:
+        raise CommandError(f"--noise-from {folder}: {exc.filename} not found (a calibrated session folder is needed)",
+                           Exit.BAD_INPUT) from None
+    except (OSError, ValueError, RigError) as exc:
+        raise CommandError(f"--noise-from {folder}: {plain(str(exc))}", Exit.BAD_INPUT) from None
+    sigma = dict(planner.SIMULATED_NOISE)
+    for name in planner.SENSORS:
+        try:
+            H = np.asarray(cal["sensors"][name]["H"], dtype=float).reshape(3, 3)
+            std = np.median(session.holds(name).std, axis=0)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise CommandError(f"--noise-from {cal_path}: sensors.{name}: {exc}", Exit.BAD_INPUT) from None
+        value = float(np.sqrt(np.mean((H**2) @ std**2)))
+        if not np.isfinite(value) or value <= 0:
+            raise CommandError(f"--noise-from {folder}: {name}: no hold spread to take the noise from", Exit.BAD_INPUT)
+        sigma[name] = value
+    return planner.NoiseModel(sigma, f"measured in {folder}")
+
+
+def predicted_lines(plan, default=None) -> list[str]:
+    out = []
+    for name, p in plan.predicted.items():
+        line = f"  {name}: H {p['H_rel_pct']:.4f} % (relative RMS), B {p['B_sd']:.3g} {p['unit']}"
+        if default is not None and default is not plan:
+            d = default.predicted[name]
+            line += f"   (default plan: H {d['H_rel_pct']:.4f} %, B {d['B_sd']:.3g} {d['unit']})"
+        out.append(line)
+    return out
+
+
+@click.command()
+@click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False))
+@click.option("--orientations", type=click.IntRange(9, 64), default=None)
+@click.option("--budget-s", type=FiniteFloat(1.0, 36000.0), default=None, help=BUDGET_HELP)
+@click.option("--target-h-pct", type=FiniteFloat(0.0, 100.0, low_open=True), default=None, help=TARGET_HELP)
+@click.option("--noise-from", type=click.Path(exists=True, file_okay=False), default=None, help=NOISE_HELP)
+@click.option("--json", "json_out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Also write the plan and its prediction as JSON.")
+def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out):
+    """Dry run: the schedule, its observability, its predicted accuracy and the ETA. Nothing moves."""
+    import time
+
+    from procedures.session import check_plan, plan_for
+    from rig.commands.calibrate import _config
+
+    if budget_s is not None and target_h_pct is not None:
+        raise click.UsageError("give --budget-s or --target-h-pct, not both")
+    started = time.perf_counter()
+    config, chosen, default, noise = planned_config(_config(config_path, orientations), budget_s, target_h_pct,
+                                                    noise_from)
+    planning_s = time.perf_counter() - started
+    schedule = plan_for(config)
+    t, s = config.turntable, config.schedule
+    click.echo(f"{len(schedule)} orientations on a {config.board} board, holds of {s.hold_s} s at {s.rate_hz} Hz, "
+               f"moves at up to {t.speed_dps:g} deg/s and {t.accel_dps2:g} deg/s^2")
+    click.echo("  #   outer_deg   inner_deg")
+    for k, o in enumerate(schedule):
+        click.echo(f"{k:3d} {o.outer_deg:11.3f} {o.inner_deg:11.3f}")
+    problems = check_plan(config, schedule)
+    click.echo("observability: " + ("every axis excited" if not problems else "; ".join(problems)))
+    if chosen.predicted:
+        click.echo(f"predicted standard deviations (Cramer-Rao bound; noise: {noise.source}):")
+        for line in predicted_lines(chosen, default):
+            click.echo(line)
+    click.echo(f"estimated rig time: {chosen.eta_s:.0f} s ({chosen.eta_s / 60:.1f} min)"
+               + (f"; planned in {planning_s:.2f} s" if chosen is not default else ""))
+    if json_out is not None:
+        doc = {"plan": chosen.to_dict(), "default": default.to_dict(), "noise": noise.sigma,
+               "noise_source": noise.source, "planning_s": round(planning_s, 3), "observability": problems}
+        try:
+            json_out.write_text(json.dumps(doc, indent=2) + "\n")
+        except OSError as exc:
+            raise CommandError(f"{json_out}: cannot write: {exc.strerror}", Exit.BAD_INPUT) from None
+    if problems:
+        sys.exit(Exit.FAIL)

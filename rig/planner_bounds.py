@@ -1,0 +1,68 @@
+"""The predicted accuracy of a session plan: Cramer-Rao bounds of every sensor's B and H from the plan alone.
+
+Accelerometer and magnetometer: `rig.calibration.bounds.cramer_rao` on the planned holds, each hold mean with
+the white noise of its samples (sigma / sqrt(samples in the hold)). The sensor is taken in its own units
+(H = I, B = 0): the relative error of H and the error of B in units do not depend on the count scale.
+
+Gyroscope: the moves give H, the holds give B. A move from hold j to hold j+1 is `phi_k = H (S_k - B T_k)`
+(rotation vector of the known rotation R_j^T R_j+1, S_k the integrated raw rate over the move's T_k seconds;
+the first-order picture of the UKF's fit of the integrated rotation, `rig.calibration.gyro`); white rate noise
+puts `sigma^2 dt T_k` on each axis of S_k (angle random walk), and the reference adds the angle noise of its
+two hold orientations and an error in proportion to its angle (MOVE_RELATIVE_SD). The holds' gyro means measure B with sigma^2 / samples. The Fisher information of
+(vec H, B) is summed over moves and holds and inverted, as in bounds.py.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rig.calibration.bounds import cramer_rao
+from rig.errors import CalibrationError
+from rig.rotations import rotvec_from_matrix
+
+# Angle noise of one hold's reference orientation (rad): the encoder mean of a hold against the table's true
+# attitude (a 0.001 deg encoder step, the servo's dither within its tolerance).
+REFERENCE_ANGLE_SD_RAD = float(np.radians(0.002))
+# Rotation error of a move in proportion to its angle, beyond the white rate noise: what the first-order model
+# misses (the reading of the samples, point or mean, and the reference's interpolation between polls grow with
+# the turn). Fitted on the simulated rig (benchmarks/bench_planner.py, 2026-11-25: achieved over predicted
+# gyro H error 0.97-1.30, mean 1.12, without it, across plans of 9-36 orientations); sparse plans with long
+# moves were the ones under-predicted.
+MOVE_RELATIVE_SD = 1.5e-4
+# Seconds of still table a move's integration carries on each side of the motion (the pipeline's trim margin).
+MOVE_MARGIN_S = 0.05
+
+
+def vector_bound(R: np.ndarray, reference_world: np.ndarray, sigma: float, samples: np.ndarray) -> tuple[float, float]:
+    """(H relative RMS, B RMS in units) of an accelerometer/magnetometer from holds at R (n, 3, 3) with `samples`
+    (n,) samples of white noise `sigma` (units) each. Raises CalibrationError for an unobservable plan."""
+    cr = cramer_rao(R, np.eye(3), np.zeros(3), reference_world, sigma / np.sqrt(np.asarray(samples, dtype=float)))
+    return cr.H_rel_rms, cr.B_rms
+
+
+def gyro_bound(R: np.ndarray, move_s: np.ndarray, sigma: float, rate_hz: float,
+               hold_samples: np.ndarray) -> tuple[float, float]:
+    """(H relative RMS, B RMS in rad/s) of a gyroscope from the moves between consecutive holds at R (n, 3, 3),
+    taking `move_s` (n-1,) seconds each, white rate noise `sigma` (rad/s per sample at `rate_hz`), and the holds'
+    `hold_samples` (n,) for the bias."""
+    R = np.asarray(R, dtype=float)
+    phi = rotvec_from_matrix(np.einsum("kji,kjl->kil", R[:-1], R[1:]))
+    T = np.asarray(move_s, dtype=float) + 2 * MOVE_MARGIN_S
+    dt = 1.0 / rate_hz
+    F = np.zeros((12, 12))
+    for p, t in zip(phi, T):
+        J = np.zeros((3, 12))
+        J[:, 0:9] = np.kron(np.eye(3), p[None, :])          # d(H S)/d vec(H), row-major, at H = I: S = phi
+        J[:, 9:12] = -t * np.eye(3)                          # d(-H B T)/dB
+        var = sigma**2 * dt * t + 2 * REFERENCE_ANGLE_SD_RAD**2 + (MOVE_RELATIVE_SD * np.linalg.norm(p))**2
+        F += J.T @ J / var
+    F[9:12, 9:12] += np.eye(3) * float(np.sum(hold_samples)) / sigma**2
+    d = np.sqrt(np.diag(F))
+    if np.any(d == 0):
+        raise CalibrationError("gyro: the moves do not determine H")
+    C = F / np.outer(d, d)
+    w = np.linalg.eigvalsh(C)
+    if w[0] < 1e-12 * w[-1]:
+        raise CalibrationError("gyro: the moves do not turn about three independent axes")
+    cov = np.linalg.solve(C, np.eye(12)) / np.outer(d, d)
+    return float(np.sqrt(np.trace(cov[:9, :9])) / np.sqrt(3.0)), float(np.sqrt(np.trace(cov[9:, 9:])))
