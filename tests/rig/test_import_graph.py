@@ -30,6 +30,7 @@ LAZY_ALLOWED = {
     ("rig.noise.statistics", "scipy.signal"): "start-up: scipy.signal only for a spectrum",
     ("rig.discrepancy.plots", "matplotlib"): "start-up: matplotlib only when plots are written",
     ("rig.discrepancy.plots", "matplotlib.pyplot"): "start-up: matplotlib only when plots are written",
+    ("rig.report.calibration_report", "rig.report.plots"): "session speed: the report's figures (matplotlib) only when drawn, after the result",
     ("rig.lab.plots", "matplotlib"): "start-up: matplotlib only when a history plot is drawn",
     ("rig.lab.plots", "matplotlib.dates"): "start-up: matplotlib only when a history plot is drawn",
     ("rig.lab.plots", "matplotlib.pyplot"): "start-up: matplotlib only when a history plot is drawn",
