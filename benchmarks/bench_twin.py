@@ -1,5 +1,5 @@
 """The twin of each real recording (issue 13, items 3-4): `rig discrepancy DIR` as a user runs it, timed as a
-process, and what it found: statistics inside the replicas' 1-99 % band before and after the extension, the
+process (with --heldout, which adds every leave-one-out refit twice), and what it found: statistics inside the replicas' 1-99 % band before and after the extension, the
 causes named, the model tests, what stays unexplained. Every recording in shared/data that the importers read is
 used; a recording that is not there is reported as missing, not skipped silently. Prints JSON.
 Usage: python benchmarks/bench_twin.py [--replicas 40] [--shared ../shared]
@@ -48,7 +48,7 @@ def main() -> None:
                 continue
             t0 = time.perf_counter()
             run = subprocess.run([*RIG, "discrepancy", str(folder), "--json", str(folder / "d.json"),
-                                  "--replicas", str(args.replicas)], capture_output=True, text=True, check=False)
+                                  "--replicas", str(args.replicas), "--heldout"], capture_output=True, text=True, check=False)
             seconds = time.perf_counter() - t0
             if run.returncode not in (0, 1):
                 out["recordings"][name] = {"exit": run.returncode, "stderr": run.stderr[-500:]}
@@ -62,7 +62,8 @@ def main() -> None:
                             "brings_back": len(c["brings_back"])} for c in twin["causes"]],
                 "model_tests": [{k: t[k] for k in ("effect", "sensor", "magnitude", "uncertainty", "unit", "p_holm",
                                                    "significant")} for t in twin["model_tests"]],
-                "unexplained": len(twin["unexplained"])}
+                "unexplained": len(twin["unexplained"]),
+                "heldout_change": twin.get("heldout_change")}
     print(json.dumps(out, indent=2))
 
 

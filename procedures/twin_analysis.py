@@ -10,7 +10,7 @@ import numpy as np
 
 from procedures.twin import bands, reconstruct, replica_statistics, twin_view
 from procedures.twin_extension import Cause, family, outside, propose
-from procedures.twin_model import added_rate, model_causes
+from procedures.twin_model import added_rate, heldout_change, model_causes
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.noise.statistics import recording_statistics
 from rig.session_data import SessionData
@@ -19,7 +19,7 @@ SCHEMA = "rig-twin/1"
 
 
 def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replicas: int = 20,
-                 seed: int = 0) -> dict:
+                 seed: int = 0, heldout: bool = False) -> dict:
     """Every statistic of the recording against its twin before and after the extension, as a JSON-able dict."""
     t0 = time.perf_counter()
     rec = calibrate_recording(session)
@@ -57,6 +57,7 @@ def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replic
                     "params": c.params, "brings_back": sorted(c.brings_back)} for c in causes],
         "unexplained": sorted(still),
         "model_tests": tests,
+        "heldout_change": heldout_change(view, rec, model) if heldout else None,
         "statistics": {name: {"real": real[name], "before": list(before[name]), "after": list(after.get(name, before[name])),
                               "inside_before": name not in off, "inside_after": name not in still,
                               "family": family(name),

@@ -5,6 +5,7 @@ the specific force at 0.2 deg/s per g, which without this the twin could only ca
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable
 
@@ -12,6 +13,7 @@ import numpy as np
 
 from fixtures.world import EFFECTS
 from procedures.twin_extension import Cause
+from rig.calibration.heldout import heldout_scores
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.recording import recording_tests
 from rig.session_data import SessionData
@@ -36,6 +38,31 @@ def added_rate(causes: list[Cause]) -> Callable[[np.ndarray, np.ndarray], np.nda
     if not terms:
         return None
     return lambda t, f: sum(term(t, f) for term in terms)
+
+
+def heldout_change(session: SessionData, rec: RecordingCalibration, causes: list[Cause]) -> dict | None:
+    """The held-out scores of item 2 (`rig.calibration.heldout`) before and after the gyro causes are taken into the
+    calibration: the rate they add removed from the raw gyro stream (relative to the poses' average, which the
+    bias holds) before every refit. The causes were fitted on the pose means, not on the motions scored."""
+    rate = added_rate(causes)
+    if rate is None:
+        return None
+    f = rec.sensors["accel"].apply(_filled(session.raw["accel"]))
+    stills = np.concatenate([p.rows for p in rec.poses])
+    extra = rate(session.t, f)
+    extra -= extra[stills].mean(axis=0)
+    corrected = copy.copy(session)
+    corrected.raw = dict(session.raw, gyro=session.raw["gyro"] - extra @ np.linalg.inv(rec.sensors["gyro"].H).T)
+    before, _ = heldout_scores(session)
+    after, _ = heldout_scores(corrected)
+    return {"causes": [c.effect for c in causes if c.rate is not None], "before": before.summary(),
+            "after": after.summary()}
+
+
+def _filled(y: np.ndarray) -> np.ndarray:
+    have = ~np.isnan(y).any(axis=1)
+    idx = np.arange(len(y))
+    return np.stack([np.interp(idx, idx[have], y[have, k]) for k in range(3)], axis=1)
 
 
 def _cause(test: dict) -> Cause | None:

@@ -32,7 +32,10 @@ SENSORS = ("accel", "gyro", "mag")
 @click.option("--no-replay", is_flag=True, help="Skip replaying the schedule in the simulator.")
 @click.option("--replicas", type=click.IntRange(10, 1000), default=40, show_default=True,
               help="Replicas of a recording's twin (recordings without a turntable).")
-def discrepancy(session_dir, json_out, report_dir, no_replay, replicas):
+@click.option("--heldout", is_flag=True,
+              help="Recordings: also score the held-out predictions before and after the named model effects are "
+                   "taken into the calibration (slower: every piece left out and refitted twice).")
+def discrepancy(session_dir, json_out, report_dir, no_replay, replicas, heldout):
     """Fit the linear model, test every candidate effect, report the ones the data support."""
     from procedures.replay import replay_comparison
     from rig.commands.sessions import read_any_session
@@ -47,7 +50,7 @@ def discrepancy(session_dir, json_out, report_dir, no_replay, replicas):
         sys.exit(Exit.BAD_INPUT)
     session.meta.setdefault("session", session_dir.name)
     if session.meta.get("reference") == "none":
-        return _recording(session, session_dir, json_out, report_dir, replicas)
+        return _recording(session, session_dir, json_out, report_dir, replicas, heldout)
     try:
         with warnings.catch_warnings():       # overflow on absurd data is reported below, not as numpy noise
             warnings.simplefilter("ignore", RuntimeWarning)
@@ -89,7 +92,8 @@ def discrepancy(session_dir, json_out, report_dir, no_replay, replicas):
         sys.exit(Exit.FAIL)
 
 
-def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | None, replicas: int) -> None:
+def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | None, replicas: int,
+               heldout: bool = False) -> None:
     """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
     from procedures.twin_analysis import analyse_twin
     from rig.errors import RigError
@@ -98,7 +102,7 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            twin = analyse_twin(session, replicas=replicas)
+            twin = analyse_twin(session, replicas=replicas, heldout=heldout)
     except RigError as exc:
         raise command_error(exc, prefix=f"{session_dir}: ") from None
     except (ValueError, ArithmeticError) as exc:
@@ -138,6 +142,14 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
         back = len(c["brings_back"])
         click.echo(f"{c['effect']} on {c['sensor']}: {c['magnitude']:.4g} {c['unit']}; brings back {back} "
                    f"statistic{'s' if back != 1 else ''}")
+    change = twin.get("heldout_change")
+    if change:
+        b, a = change["before"], change["after"]
+        for key, what in (("gyro_carry_deg", "gravity carried across a left-out motion"),
+                          ("gyro_turn_deg", "a left-out turn")):
+            if b[key]["rms"] is not None and a[key]["rms"] is not None:
+                click.echo(f"held out, {what}: {b[key]['rms']:.3f} deg RMS before, {a[key]['rms']:.3f} deg with "
+                           f"{', '.join(change['causes'])} in the calibration")
     if twin["unexplained"]:
         click.echo(f"unexplained: {len(twin['unexplained'])} statistics stay outside the band (listed in {json_out})")
     click.echo(f"wrote {json_out}" + (f" and {len(files)} plots in {report_dir}" if files else ""))
