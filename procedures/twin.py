@@ -27,7 +27,7 @@ from rig.errors import CalibrationError
 from rig.io.recording import recording_session
 from rig.noise.statistics import recording_statistics
 from rig.rotations import matrix_from_rotvec
-from rig.session_data import SessionData
+from rig.session_data import SessionData, filled
 
 SMOOTH_SAMPLES = 5
 
@@ -79,7 +79,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
           for p in rec.poses]
     omega = _rate(session, rec)
     if added_rate is not None:
-        f = rec.sensors["accel"].apply(_filled(session.raw["accel"]))
+        f = rec.sensors["accel"].apply(filled(session.raw["accel"]))
         omega -= added_rate(t, f) - added_rate(t, f)[pose_of >= 0].mean(axis=0)
     omega[pose_of >= 0] = 0.0
     R = np.empty((n, 3, 3))
@@ -179,15 +179,9 @@ def _white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) -
     return np.sqrt(np.mean(stds ** 2, axis=0))
 
 
-def _filled(y: np.ndarray) -> np.ndarray:
-    have = ~np.isnan(y).any(axis=1)
-    idx = np.arange(len(y))
-    return np.stack([np.interp(idx, idx[have], y[have, k]) for k in range(3)], axis=1)
-
-
 def _rate(session: SessionData, rec: RecordingCalibration) -> np.ndarray:
     """The calibrated gyro rate (rad/s), gaps filled, smoothed over a few samples."""
-    w = rec.sensors["gyro"].apply(_filled(session.raw["gyro"]))
+    w = rec.sensors["gyro"].apply(filled(session.raw["gyro"]))
     kernel = np.ones(SMOOTH_SAMPLES) / SMOOTH_SAMPLES
     return np.stack([np.convolve(w[:, k], kernel, mode="same") for k in range(3)], axis=1)
 

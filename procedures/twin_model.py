@@ -16,7 +16,7 @@ from procedures.twin_extension import Cause
 from rig.calibration.heldout import heldout_scores
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.recording import recording_tests
-from rig.session_data import SessionData
+from rig.session_data import SessionData, filled
 
 G0 = 9.80665
 DEG = math.pi / 180
@@ -47,7 +47,7 @@ def heldout_change(session: SessionData, rec: RecordingCalibration, causes: list
     rate = added_rate(causes)
     if rate is None:
         return None
-    f = rec.sensors["accel"].apply(_filled(session.raw["accel"]))
+    f = rec.sensors["accel"].apply(filled(session.raw["accel"]))
     stills = np.concatenate([p.rows for p in rec.poses])
     extra = rate(session.t, f)
     extra -= extra[stills].mean(axis=0)
@@ -57,12 +57,6 @@ def heldout_change(session: SessionData, rec: RecordingCalibration, causes: list
     after, _ = heldout_scores(corrected)
     return {"causes": [c.effect for c in causes if c.rate is not None], "before": before.summary(),
             "after": after.summary()}
-
-
-def _filled(y: np.ndarray) -> np.ndarray:
-    have = ~np.isnan(y).any(axis=1)
-    idx = np.arange(len(y))
-    return np.stack([np.interp(idx, idx[have], y[have, k]) for k in range(3)], axis=1)
 
 
 def _cause(test: dict) -> Cause | None:

@@ -193,6 +193,14 @@ class SessionData:
         return out
 
 
+def filled(y: np.ndarray) -> np.ndarray:
+    """A stream (n, 3) with its empty rows (read errors, slower sensors) interpolated over the sample index: for
+    calibrated series that must be continuous (a motion's rate, the specific force along a replay)."""
+    have = ~np.isnan(y).any(axis=1)
+    idx = np.arange(len(y))
+    return np.stack([np.interp(idx, idx[have], y[have, k]) for k in range(y.shape[1])], axis=1)
+
+
 def mean_rotation(q: np.ndarray) -> np.ndarray:
     """Rotation matrix of the (sign-aligned, normalised) mean of scalar-first quaternions."""
     q = np.atleast_2d(np.asarray(q, dtype=float))

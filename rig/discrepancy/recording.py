@@ -22,7 +22,7 @@ import numpy as np
 from scipy import stats
 
 from rig.calibration.recording import RecordingCalibration
-from rig.session_data import SessionData
+from rig.session_data import SessionData, filled
 
 ALPHA = 0.01
 G0 = 9.80665
@@ -147,8 +147,8 @@ def _motions(session: SessionData, rec: RecordingCalibration) -> list[np.ndarray
 
 def _motion_delay(session: SessionData, rec: RecordingCalibration, rows: np.ndarray, dt: float) -> float | None:
     t = session.t[rows]
-    a = rec.sensors["accel"].apply(_filled(session.raw["accel"][rows]))
-    w = rec.sensors["gyro"].apply(_filled(session.raw["gyro"][rows]))
+    a = rec.sensors["accel"].apply(filled(session.raw["accel"][rows]))
+    w = rec.sensors["gyro"].apply(filled(session.raw["gyro"][rows]))
     width = max(round(0.05 / dt), 1)
     a, w = _smooth(a, width), _smooth(w, width)
     g = a / np.linalg.norm(a, axis=1, keepdims=True)
@@ -170,12 +170,6 @@ def _motion_delay(session: SessionData, rec: RecordingCalibration, rows: np.ndar
     c0, c1, c2 = costs[i - 1], costs[i], costs[i + 1]
     curve = c0 - 2 * c1 + c2
     return float(grid[i] + (0.5 * (c0 - c2) / curve * dt if curve > 0 else 0.0))
-
-
-def _filled(y: np.ndarray) -> np.ndarray:
-    have = ~np.isnan(y).any(axis=1)
-    idx = np.arange(len(y))
-    return np.stack([np.interp(idx, idx[have], y[have, k]) for k in range(3)], axis=1)
 
 
 def _smooth(y: np.ndarray, width: int) -> np.ndarray:
