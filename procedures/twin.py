@@ -45,6 +45,7 @@ class Replay:
     segments: list[dict]
     rate_hz: float
     source: str
+    carry_sd: float | None = None         # the recording's trust in its hand motions, kept for every replica
 
 
 def twin_view(session: SessionData, rec: RecordingCalibration) -> SessionData:
@@ -106,7 +107,8 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   {s: session.meta.get("units", {}).get(s, "counts") for s in sensors},
                   {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
                   session.meta.get("segments") or pose_segments(session, rec),
-                  float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source)
+                  float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
+                  rec.sensors["gyro"].extra.get("carry_sd"))
 
 
 def replica(replay: Replay, seed: int, effects=(), quiet=()) -> SessionData:
@@ -152,7 +154,7 @@ def _one_replica(seed: int) -> dict | None:
     replay, effects_for, quiet = _JOB
     rep = replica(replay, seed, effects_for(seed), quiet)
     try:
-        return recording_statistics(rep, calibrate_recording(rep))
+        return recording_statistics(rep, calibrate_recording(rep, carry_sd=replay.carry_sd))
     except CalibrationError:
         return None
 

@@ -84,10 +84,13 @@ def segments_of(session: SessionData) -> tuple[list[Pose], list[Turn]]:
     return poses, turns
 
 
-def calibrate_recording(session: SessionData, *, leave_out: dict | None = None) -> RecordingCalibration:
+def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
+                        carry_sd: float | None = None) -> RecordingCalibration:
     """Accelerometer (and magnetometer) from the static poses, gyroscope from turns and motions between poses.
 
     leave_out: {"poses": [i, ...], "turns": [k, ...], "carries": [c, ...]} not used in the fit.
+    carry_sd: how far a hand motion's carried gravity is trusted; None: chosen by cross-validation where turns
+    say it too (the twin's replicas take the recording's choice rather than choosing again).
     """
     poses, turns = segments_of(session)
     if not poses:
@@ -102,7 +105,8 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None) 
         sensors["mag"] = _vector_fit(session, "mag", use_poses, float(session.field_uT))
     carries = _carries(session, poses)
     if "gyro" in session.raw:
-        sensors["gyro"], used = fit_gyro(session, sensors["accel"], poses, turns, carries, leave_out)
+        sensors["gyro"], used = fit_gyro(session, sensors["accel"], poses, turns, carries, leave_out,
+                                         carry_sd)
         if not used["turns"] and not used["carries"]:
             warnings.append("gyro: no turn of known angle and no whole motion between poses")
     return RecordingCalibration(sensors, poses, turns, carries, warnings)
@@ -176,7 +180,8 @@ def _carries(session: SessionData, poses: list[Pose]) -> list[tuple[int, int]]:
 
 
 def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list[Turn],
-              carries: list[tuple[int, int]], leave_out: dict) -> tuple[TriadCalibration, dict]:
+              carries: list[tuple[int, int]], leave_out: dict,
+             carry_sd: float | None = None) -> tuple[TriadCalibration, dict]:
     y = session.raw["gyro"]
     stills = np.concatenate([p.rows for p in poses])
     still = y[stills]
@@ -190,11 +195,12 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
     streams = [motion(session, poses[i], poses[j]) for i, j in carries]
     carry_terms = [(streams[c], g[i], g[j]) for c, (i, j) in enumerate(carries) if c not in skip_carries]
     H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms)
-    carry_sd = CARRY_SD
-    if turn_terms and carry_terms and info["rank"] == 9:
-        carry_sd = carry_sd_by_cross_validation(B, turn_terms, carry_terms, H)
-        if carry_sd != CARRY_SD:
-            H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms, H0=H, carry_sd=carry_sd)
+    if carry_sd is None:
+        carry_sd = CARRY_SD
+        if turn_terms and carry_terms and info["rank"] == 9:
+            carry_sd = carry_sd_by_cross_validation(B, turn_terms, carry_terms, H)
+    if carry_sd != CARRY_SD:
+        H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms, H0=H, carry_sd=carry_sd)
     if info["rank"] < 9:
         raise CalibrationError(f"gyro: the turns and motions left in the fit determine only {info['rank']} of H's 9 "
                                "entries")
