@@ -18,7 +18,7 @@ from rig.session_data import SessionData
 SCHEMA = "rig-twin/1"
 
 
-def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replicas: int = 20,
+def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replicas: int = 10,
                  seed: int = 0, heldout: bool = False) -> dict:
     """Every statistic of the recording against its twin before and after the extension, as a JSON-able dict."""
     t0 = time.perf_counter()
