@@ -102,6 +102,10 @@ class PgServer:
         deadline = time.monotonic() + 10
         while time.monotonic() < deadline and any(Path(f"/proc/{p}").exists() and _alive(p) for p in pids):
             time.sleep(0.05)
+        if pids and not any(_alive(p) for p in pids):
+            # A killed postmaster is a zombie until its parent (init here) reaps it, and a zombie still answers
+            # kill(pid, 0): the restart would take its lock file for a live server. Dead is dead: drop the file.
+            (self.data / "postmaster.pid").unlink(missing_ok=True)
 
     def url(self, db: str = "postgres", user: str = SUPERUSER) -> str:
         return f"postgresql://{user}@127.0.0.1:{self.port}/{db}"
