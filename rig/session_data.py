@@ -193,6 +193,19 @@ class SessionData:
         return out
 
 
+def with_configuration_facts(data: SessionData) -> SessionData:
+    """What the interchange layout carries beside the arrays, taken for a stored session from its configuration
+    snapshot: the sample rate and the table's axes (`meta["table"]`)."""
+    config = data.meta.get("config") or {}
+    geometry = config.get("geometry") or {}
+    if data.sample_rate_hz is None and (config.get("schedule") or {}).get("rate_hz"):
+        data.sample_rate_hz = float(config["schedule"]["rate_hz"])
+    table = {k: geometry[k] for k in ("outer_axis_world", "inner_axis_fixture") if k in geometry}
+    if table:
+        data.meta.setdefault("table", table)
+    return data
+
+
 def filled(y: np.ndarray) -> np.ndarray:
     """A stream (n, 3) with its empty rows (read errors, slower sensors) interpolated over the sample index: for
     calibrated series that must be continuous (a motion's rate, the specific force along a replay)."""

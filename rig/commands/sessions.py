@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from rig.errors import InputError
-from rig.session_data import SessionData
+from rig.session_data import SessionData, with_configuration_facts
 
 
 def is_rig_session(folder: Path) -> bool:
@@ -32,14 +32,5 @@ def read_any_session(folder: Path) -> SessionData:
 
 
 def session_from_store(store) -> SessionData:
-    """The store's session with what the interchange layout carries beside the arrays: the sample rate and the
-    table's axes (`meta["table"]`), taken from the configuration snapshot."""
-    data = store.to_session_data()
-    config = data.meta.get("config") or {}
-    geometry = config.get("geometry") or {}
-    if data.sample_rate_hz is None and (config.get("schedule") or {}).get("rate_hz"):
-        data.sample_rate_hz = float(config["schedule"]["rate_hz"])
-    table = {k: geometry[k] for k in ("outer_axis_world", "inner_axis_fixture") if k in geometry}
-    if table:
-        data.meta.setdefault("table", table)
-    return data
+    """The store's session with what the interchange layout carries beside the arrays (its configuration facts)."""
+    return with_configuration_facts(store.to_session_data())

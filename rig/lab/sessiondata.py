@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import sqlite3
 
-from rig.session_data import SessionData
+from rig.session_data import SessionData, with_configuration_facts
 from rig.store.assemble import assemble_session
 from rig.store.schema import DDL
 
@@ -25,7 +25,7 @@ def loads(text):
 
 
 def from_sqlite(conn: sqlite3.Connection, meta: dict, source: str) -> SessionData:
-    return completed(assemble_session(conn, meta, source=source))
+    return with_configuration_facts(assemble_session(conn, meta, source=source))
 
 
 def from_rows(segments: list[tuple], arrays: list[tuple], events: list[tuple], meta: dict, source: str) -> SessionData:
@@ -45,19 +45,6 @@ def from_rows(segments: list[tuple], arrays: list[tuple], events: list[tuple], m
         return from_sqlite(db, meta, source)
     finally:
         db.close()
-
-
-def completed(data: SessionData) -> SessionData:
-    """What the interchange layout carries beside the arrays, from the configuration snapshot: the sample rate
-    and the table's axes (as `rig.commands.sessions.session_from_store` does for a session folder)."""
-    config = data.meta.get("config") or {}
-    geometry = config.get("geometry") or {}
-    if data.sample_rate_hz is None and (config.get("schedule") or {}).get("rate_hz"):
-        data.sample_rate_hz = float(config["schedule"]["rate_hz"])
-    table = {k: geometry[k] for k in ("outer_axis_world", "inner_axis_fixture") if k in geometry}
-    if table:
-        data.meta.setdefault("table", table)
-    return data
 
 
 def group_hold_means(rows: list[tuple]) -> list[dict]:
