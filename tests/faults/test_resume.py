@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 from stopping import READS_PER_STEP, Killed, h_errors, stopping_factory
 
+from fixtures.simrig import SimulatedHardware
 from procedures.orchestrator import RigSpec, SessionOrchestrator
+from rig.clock import SimClock
 from rig.config import load_config
 from rig.pipeline.screening import move_gap, resume_times
 from rig.store import SESSION_FILE, SessionStore
@@ -140,3 +142,17 @@ def test_a_hole_or_a_resume_inside_a_move_keeps_it_out_of_the_gyro_calibration(t
     data.meta["resumes"] = [{"t_s": float(m.t[len(m.t) // 2 + 1]) + 2.5}]
     result = calibrate_session(data, settle_s=0.0)
     assert any("move 4 -> 5 not used" in w and "spans the resume" in w for w in result.warnings), result.warnings
+
+
+def test_a_resumed_run_draws_new_noise_and_a_run_repeats_its_own():
+    """A resumed run is a new process: restarting the noise stream would give the holds after the interruption
+    the noise of the first holds, errors shared between two orientations that no real sensor has."""
+    def first_samples(run):
+        hw = SimulatedHardware(config(), SimClock(), seed=5, run=run)
+        samples = np.array([hw.world.sense_one("gyro", 0.01 * k) for k in range(50)])
+        return samples - samples.mean(axis=0)             # the table is still: what is left is the noise
+
+    assert np.array_equal(first_samples(0), first_samples(0))
+    assert np.array_equal(first_samples(1), first_samples(1))
+    correlation = np.corrcoef(first_samples(0).ravel(), first_samples(1).ravel())[0, 1]
+    assert abs(correlation) < 0.5
