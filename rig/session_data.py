@@ -34,6 +34,9 @@ class HoldStats:
 
 SETTLE_NOISE_FACTOR = 6.0
 SETTLE_FLOOR_RAD = float(np.radians(0.005))
+# A pause longer than this inside a hold's rows is a new visit (the table was away, or the rig was stopped),
+# settled anew; shorter holes are lost reads (a retried bus or table request: 0.05-0.2 s).
+VISIT_GAP_S = 0.5
 
 
 @dataclass
@@ -110,18 +113,25 @@ class SessionData:
 
         `settle_s` is the least that is dropped: where the reference still moves after it, the rows up to its
         last excursion in the hold's first half are dropped too (see `_settled`).
-        A hold visited twice (a repeated hold after a bump) counts once: its last visit.
+        A hold visited twice (a repeated hold after a bump) counts once: its last visit. Visits with no move
+        rows between them (the hold held again after a resume or a redone step: the moves away and back were
+        not kept) form one hold, each visit settled on its own, since the table came to it anew.
         """
         rows = np.flatnonzero(~self.is_move)
         if rows.size == 0:
             return []
-        breaks = np.flatnonzero((np.diff(rows) != 1) | (np.diff(self.step[rows]) != 0)) + 1
+        apart = (np.diff(rows) != 1) | (np.diff(self.step[rows]) != 0)
+        breaks = np.flatnonzero(apart | (np.diff(self.t[rows]) > VISIT_GAP_S)) + 1
         out: dict[int, np.ndarray] = {}
-        for seg in np.split(rows, breaks):
+        joined = np.r_[False, ~apart[breaks - 1]] if breaks.size else np.array([False])
+        for seg, same_visit_run in zip(np.split(rows, breaks), joined):
+            step = int(self.step[seg[0]])
             if settle_s > 0:
                 seg = self._settled(seg[self.t[seg] >= self.t[seg[0]] + settle_s])
+            if same_visit_run and step in out:
+                seg = np.concatenate([out[step], seg])
             if seg.size:
-                out[int(self.step[seg[0]])] = seg
+                out[step] = seg
         return sorted(out.items(), key=lambda kv: self.t[kv[1][0]])
 
     def _settled(self, seg: np.ndarray) -> np.ndarray:

@@ -308,3 +308,21 @@ def test_noiseless_session_reports_its_rounding():
     for name in ("accel", "gyro", "mag"):
         cal = result.sensors[name]
         assert np.all(np.abs(cal.B - truth.B[name]) < 4 * cal.B_std), (name, cal.B - truth.B[name], cal.B_std)
+
+
+def test_a_hold_visited_again_is_settled_again(base):
+    """The hold held again after a resume or a redone step follows its first visit with no move rows between;
+    the table came to it anew, so its start is settling too (an interrupted session must not keep what the
+    uninterrupted one drops)."""
+    session, truth = fresh(base)
+    j, idx = session.hold_rows()[5]
+    second = idx[len(idx) // 2]
+    session.t[second:] += 3.0                                       # the table went away and came back
+    again = idx[idx >= second]
+    ring = (session.t[again] - session.t[second] < 0.3)[:, None] * np.array([400.0, -300.0, 500.0])
+    session.raw["accel"][again] += np.round(ring)
+    rows = dict(session.hold_rows(0.5))[j]
+    assert (session.t[rows] < session.t[second]).any(), "the first visit is kept"
+    assert not ((session.t[rows] >= session.t[second]) & (session.t[rows] < session.t[second] + 0.5)).any()
+    assert (session.t[rows] >= session.t[second] + 0.5).any(), "the second visit is kept after its settling"
+    assert_matches_truth(calibrate_session(session, settle_s=0.5).sensors, truth, ("accel",))
