@@ -336,10 +336,7 @@ def judge(draw: dict, runs: list[dict], states: list[dict], out: Path) -> dict:
                 verdict = "interrupted by " + (r["signal"] or r["ended"])
             faults.append({"kind": kind, "outcome": verdict})
     if draw["disk"]:
-        r = runs[0]
-        reported = r["ended"] == "failed" and any(key in r.get("message", "") for key in REPORTED["disk_full"])
-        faults.append({"kind": "disk_full", "outcome": "reported" if reported else "did not fill"
-                       if r["ended"] == "complete" else f"run ended {r['ended']}"})
+        faults.append({"kind": "disk_full", "outcome": disk_outcome(draw, runs[0])})
     unexplained = [r.get("message", "") for r in runs if r["ended"] == "failed" and explains_nothing(draw, r)]
     result = {"draw": draw, "status": final.get("status"), "runs": [strip(r) for r in runs], "holds_lost": lost,
               "holds_duplicated": duplicated, "tracebacks": tracebacks,
@@ -348,6 +345,18 @@ def judge(draw: dict, runs: list[dict], states: list[dict], out: Path) -> dict:
     if complete:
         result["H_error"] = h_errors(out)
     return result
+
+
+def disk_outcome(draw: dict, run: dict) -> str:
+    """What became of the disk limit of a session's first run: the disk filled and the run said so, or the run
+    ended before it filled (complete, failed by another fault it names, stopped by a signal)."""
+    if run["ended"] == "failed":
+        if any(key in run.get("message", "") for key in REPORTED["disk_full"]):
+            return "reported"
+        return "failed, unexplained" if explains_nothing(draw, run) else "run failed by another fault"
+    if run["ended"] in ("complete", "rejected"):
+        return "did not fill"
+    return "interrupted by " + (run["signal"] or run["ended"])
 
 
 def explains_nothing(draw: dict, run: dict) -> bool:
