@@ -464,7 +464,28 @@ def summarise(results: list[dict], twins: dict, trials: int) -> dict:
         "H_error_ratio_twin_vs_noise_trial": {s: spread(noise[s]) for s in sensors},
         "ratios_above_1.5": high,
         "beyond_1.5x_worst_noise_trial": beyond,
+        "H_error_rank_among_noise_trials": {s: ranks(results, twins, trials, s) for s in sensors},
     }
+
+
+def ranks(results: list[dict], twins: dict, trials: int, sensor: str) -> dict:
+    """Where each completed session's H error falls among its unit's uninterrupted noise trials, for the sessions
+    whose noise realisation the faults changed (a redone step, a resumed run, lost reads: the error is not the
+    twin's). Harmless faults leave it one more noise trial: ranks uniform on 1..trials+1, mean (trials+2)/2,
+    the top rank in 1/(trials+1) of the sessions; a fault that costs accuracy pushes the ranks up."""
+    got = []
+    for r in results:
+        if "H_error" not in r:
+            continue
+        errs = [twins[r["draw"]["unit"]][k][sensor] for k in range(trials)]
+        e = r["H_error"][sensor]
+        if abs(e / errs[0] - 1) > 1e-9:
+            got.append(1 + sum(x < e for x in errs))
+    if not got:
+        return {"n": 0}
+    return {"n": len(got), "mean_rank": round(statistics.mean(got), 2), "expected_mean": (trials + 2) / 2,
+            "top_rank_share": round(sum(g == trials + 1 for g in got) / len(got), 3),
+            "expected_top_share": round(1 / (trials + 1), 3)}
 
 
 def can_mount() -> bool:
@@ -521,7 +542,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--time-scale", type=float, default=40.0)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--twin-trials", type=int, default=3, help="noise trials per unit (trial 0 is the twin)")
+    ap.add_argument("--twin-trials", type=int, default=5, help="noise trials per unit (trial 0 is the twin)")
     ap.add_argument("--kinds", default=",".join(KINDS))
     ap.add_argument("--keep", type=Path, default=None, help="keep the session folders here")
     args = ap.parse_args()
