@@ -19,7 +19,7 @@ import os
 import shutil
 import sqlite3
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import closing, contextmanager
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -45,6 +45,9 @@ TERMINAL_STATUSES = ("complete", "rejected", "aborted", "failed")
 FINISHED_STATUSES = ("complete", "rejected")
 BUSY_TIMEOUT_S = 5.0
 RESERVE_FILE = ".space-reserve"
+# A session file is built under this suffix and renamed into place once it is a whole session: a create that
+# is killed part way (a stop signal at start-up) leaves no file that `rig resume` would refuse as not a session.
+PARTIAL_SUFFIX = ".partial"
 RESERVE_BYTES = 1 << 20
 
 
@@ -67,7 +70,8 @@ class SessionStore:
     # -- opening ---------------------------------------------------------------------------------
     @classmethod
     def create(cls, folder: Path, metadata: dict) -> "SessionStore":
-        """Create `folder/session.sqlite` (folder made if needed); refuses to overwrite a session."""
+        """Create `folder/session.sqlite` (folder made if needed), whole or not at all; refuses to overwrite a
+        session."""
         folder = Path(folder)
         path = folder / SESSION_FILE
         if path.exists():
@@ -80,16 +84,23 @@ class SessionStore:
         except OSError as exc:
             raise NotASession(f"{folder}: cannot create the session folder: {exc.strerror}") from None
         _check_writable(folder)
-        conn = _connect(path, uri=path.resolve().as_uri())
-        store = cls(path, conn)
+        partial = folder / (SESSION_FILE + PARTIAL_SUFFIX)
+        _remove_sqlite_files(partial)          # left by a create that was killed before it finished
+        try:
+            with closing(_connect(partial, uri=partial.resolve().as_uri())) as conn:
+                with cls(path, conn)._transaction() as db:     # errors name the session file
+                    db.execute(f"PRAGMA application_id={APPLICATION_ID}")
+                    db.execute(f"PRAGMA user_version={LAYOUT_VERSION}")
+                    for statement in DDL.split(";"):
+                        if statement.strip():
+                            db.execute(statement)
+                    db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
+            os.replace(partial, path)
+        except BaseException:
+            _remove_sqlite_files(partial)
+            raise
+        store = cls(path, _connect(path, uri=path.resolve().as_uri() + "?mode=rw"))
         store.keep_reserve()
-        with store._transaction() as db:
-            db.execute(f"PRAGMA application_id={APPLICATION_ID}")
-            db.execute(f"PRAGMA user_version={LAYOUT_VERSION}")
-            for statement in DDL.split(";"):
-                if statement.strip():
-                    db.execute(statement)
-            db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
         return store
 
     @classmethod
@@ -345,6 +356,11 @@ def _write_failure(path: Path) -> str:
     if free is not None and free < RESERVE_BYTES:
         return f"the disk is full ({free} bytes free): free some space, then `rig resume`"
     return "writing to the disk failed (removed, read-only or failing?); check it, then `rig resume`"
+
+
+def _remove_sqlite_files(path: Path) -> None:
+    for name in (path, path.with_name(path.name + "-wal"), path.with_name(path.name + "-shm")):
+        name.unlink(missing_ok=True)
 
 
 def _check_writable(folder: Path) -> None:
