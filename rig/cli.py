@@ -11,6 +11,8 @@ import sys
 
 import click
 
+from rig import exits
+
 # The subcommands, imported only when run: name -> ("module:attribute" of a click command, its short help).
 # The short help is what `rig --help` lists, kept here so that listing imports nothing (issue 17, start-up);
 # it is the first sentence of the command's docstring, as click shows it (tests/startup/test_help_table.py
@@ -110,6 +112,8 @@ class LazyGroup(click.Group):
         """click's main with the last-resort guard around it (see `guarded`)."""
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        if args is None:                     # the `rig` process itself (a test runner passes its arguments)
+            exits.process_ends_with_command = True
         sys.exit(guarded(lambda: super(LazyGroup, self).main(args, prog_name, complete_var,
                                                              standalone_mode=False, **extra), args))
 

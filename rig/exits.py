@@ -22,6 +22,11 @@ import click
 from rig.errors import Busy, InputError
 
 
+# True in the `rig` process itself (set by the command line's entry), where the process exits as soon as its
+# command returns; False where a command runs inside another program (a test runner).
+process_ends_with_command = False
+
+
 class Exit(enum.IntEnum):
     OK = 0
     FAIL = 1

@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from rig.config import RigConfig, load_config
+from rig import exits
 from rig.exits import (
     CommandError,
     Exit,
@@ -92,26 +93,27 @@ def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, se
 
     bar = _Progress(progress)
     orchestrator = SessionOrchestrator(out, build_rig, method=method, progress=bar, plots=plots)
-    try:
-        with stop_signals_raise():
-            try:
-                if resume:
-                    outcome = orchestrator.resume()
-                else:
-                    outcome = orchestrator.start(config, RigSpec(sim, seed if sim else None, time_scale, trial), plan)
-            finally:
-                bar.close()
-    except KeyboardInterrupt as exc:          # a stop before the session existed: nothing to mark
-        import signal
+    with late_stop_signals() as late:         # what the session's stop handler leaves behind: noted, not obeyed
+        try:
+            with stop_signals_raise():
+                try:
+                    if resume:
+                        outcome = orchestrator.resume()
+                    else:
+                        outcome = orchestrator.start(config, RigSpec(sim, seed if sim else None, time_scale, trial),
+                                                     plan)
+                finally:
+                    bar.close()
+        except KeyboardInterrupt as exc:      # a stop before the session existed: nothing to mark
+            import signal
 
-        signum = getattr(exc, "signum", signal.SIGINT)
-        echo(f"aborted by {_signal_name(signum)} before recording began; nothing new was recorded", err=True)
-        return aborted(signum)
-    except Exception as exc:
-        if not _is_known(exc):
-            raise
-        raise command_error(exc, prefix="" if resume else "cannot start the session: ") from None
-    with late_stop_signals() as late:
+            signum = getattr(exc, "signum", signal.SIGINT)
+            echo(f"aborted by {_signal_name(signum)} before recording began; nothing new was recorded", err=True)
+            return aborted(signum)
+        except Exception as exc:
+            if not _is_known(exc):
+                raise
+            raise command_error(exc, prefix="" if resume else "cannot start the session: ") from None
         code = show_outcome(outcome, echo)
     if late:
         echo(f"{_signal_name(late[0])} came after the session had ended ({outcome.status}): nothing left to stop",
@@ -123,7 +125,9 @@ def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, se
 def late_stop_signals():
     """A stop signal once the session has ended and its status is stored is noted, not obeyed: the exit code
     stays the one of the session's stored end (a SIGTERM racing a failed session's exit killed the process with
-    the signal's code while the store said `failed`; found by the fault campaign)."""
+    the signal's code while the store said `failed`; found by the fault campaign). In the `rig` process itself
+    the note stays until the process exits, since a signal between this block and the exit would kill it with
+    the signal's code all the same; inside another program the handlers are given back."""
     import signal
 
     late: list[int] = []
@@ -132,8 +136,9 @@ def late_stop_signals():
     try:
         yield late
     finally:
-        for sig, old in before.items():
-            signal.signal(sig, old)
+        if not exits.process_ends_with_command:
+            for sig, old in before.items():
+                signal.signal(sig, old)
 
 
 def _signal_name(signum: int) -> str:

@@ -193,3 +193,35 @@ def test_a_stop_signal_after_the_session_ended_is_noted_not_obeyed():
         os.kill(os.getpid(), signal.SIGTERM)
     assert late == [signal.SIGTERM]
     assert signal.getsignal(signal.SIGTERM) is not before
+
+
+def test_in_the_rig_process_a_late_stop_signal_stays_noted_until_it_exits(monkeypatch):
+    """Between the end of the session's block and the process's exit, a SIGTERM with the handlers given back
+    killed `rig` with -15 while the store said `failed` (the fault campaign, once in 325 runs)."""
+    import os
+    import signal
+
+    from rig import exits
+    from rig.commands.calibrate import late_stop_signals
+
+    before = signal.getsignal(signal.SIGTERM)
+    monkeypatch.setattr(exits, "process_ends_with_command", True)
+    try:
+        with late_stop_signals() as late:
+            pass
+        os.kill(os.getpid(), signal.SIGTERM)
+        assert late == [signal.SIGTERM]
+    finally:
+        signal.signal(signal.SIGTERM, before)
+
+
+def test_the_rig_process_and_a_test_runner_are_told_apart():
+    from rig import exits
+
+    assert not exits.process_ends_with_command
+    code = "import sys; from rig import exits; from rig.cli import main\n" \
+           "try:\n    main()\nexcept SystemExit:\n    print(exits.process_ends_with_command)"
+    out = subprocess.run([sys.executable, "-c", code, "--help"], capture_output=True, text=True, timeout=60)
+    assert out.stdout.strip().endswith("True"), out
+    CliRunner().invoke(main, ["--help"])
+    assert not exits.process_ends_with_command
