@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from fixtures.world.noise_effects import (BiasInstability, HoldNotStill, Quantisation, RateRandomWalk, Saturation,
+from fixtures.world.effects.noise import (BiasInstability, HoldNotStill, Quantisation, RateRandomWalk, Saturation,
                                           ShapedNoise)
 from procedures.twin import Replay
 from rig.calibration.quantisation import noise_sigma
