@@ -63,19 +63,19 @@ def _cause(test: dict) -> Cause | None:
     p = test["params"]
     if test["effect"] == "gyro_g_sensitivity":
         Gs = np.array(p["G_deg_s_per_g"]) * DEG / G0
-        return Cause("gyro_g_sensitivity", "gyro", test["magnitude"], test["unit"], p, GYRO_MEANS,
+        return Cause("gyro_g_sensitivity", "gyro", test["magnitude"], p, GYRO_MEANS,
                      lambda seed, Gs=Gs: [EFFECTS["gyro_g_sensitivity"]("gyro", Gs=Gs)], rate=lambda t, f, Gs=Gs: f @ Gs.T)
     if test["effect"] == "bias_drift":
         d = np.array(p["d_deg_s_per_hour"]) * DEG / 3600.0
-        return Cause("bias_drift", "gyro", test["magnitude"], test["unit"], p, (*GYRO_MEANS, "gyro.adev"),
+        return Cause("bias_drift", "gyro", test["magnitude"], p, (*GYRO_MEANS, "gyro.adev"),
                      lambda seed, d=d: [EFFECTS["bias_drift"]("gyro", d=d)], rate=lambda t, f, d=d: np.multiply.outer(t, d))
     if test["effect"] == "time_offset":
         tau = float(test["magnitude"])
-        return Cause("time_offset", "gyro", tau, test["unit"], p, GYRO_MOTION,
+        return Cause("time_offset", "gyro", tau, p, GYRO_MOTION,
                      lambda seed, tau=tau: [EFFECTS["time_offset"]("gyro", tau=tau)])
     if test["effect"] == "accel_scale_nonlinearity":
         K2 = np.array(p["K2"])
-        return Cause("accel_scale_nonlinearity", "accel", test["magnitude"], test["unit"], p,
+        return Cause("accel_scale_nonlinearity", "accel", test["magnitude"], p,
                      ("accel.norm_residual", "accel.norm_scatter"),
                      lambda seed, K2=K2: [EFFECTS["accel_scale_nonlinearity"]("accel", K2=K2)])
     return None

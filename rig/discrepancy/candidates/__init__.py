@@ -1,6 +1,8 @@
-"""The candidate library: every candidate test of the vocabulary, one module per effect (`@candidate_test`, see
-`rig.discrepancy.candidates_base`). Every module of this package is imported here (`rig.effects.discover`), so a
-new effect's candidate file is found without being listed anywhere; `library` reads the complete registry.
+"""The candidate library: the discrepancy analysis's tests of each effect of the vocabulary, one module per effect:
+its candidate test on turntable sessions (`@candidate_test`, `rig.discrepancy.candidates_base`) and, where a
+recording without a turntable can show it, its recording test (`@pose_regressor` or `@recording_test`,
+`rig.discrepancy.recording_base`). Every module of this package is imported here (`rig.effects.discover`), so a
+new effect's file is found without being listed anywhere; `library` reads the complete registry.
 """
 
 from __future__ import annotations
@@ -11,9 +13,11 @@ import numpy as np
 
 from rig.discrepancy.candidates_base import AXES, CANDIDATES, COVARIATES, Candidate, candidate_test
 from rig.discrepancy.observations import Observations
+from rig.discrepancy.recording_base import POSE_REGRESSORS, RECORDING_TESTS
 from rig.effects import EFFECTS, discover
 
-__all__ = ["AXES", "CANDIDATES", "COVARIATES", "Candidate", "candidate_test", "library"]
+__all__ = ["AXES", "CANDIDATES", "COVARIATES", "POSE_REGRESSORS", "RECORDING_TESTS", "Candidate", "candidate_test",
+           "library"]
 
 discover(__name__, __path__)
 

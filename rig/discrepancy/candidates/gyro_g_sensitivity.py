@@ -1,10 +1,11 @@
-"""The discrepancy analysis's candidate test of `gyro_g_sensitivity`: proof-mass response to specific force."""
+"""The discrepancy analysis's tests of `gyro_g_sensitivity`: proof-mass response to specific force."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from rig.discrepancy.candidates_base import AXES, Candidate, candidate_test
+from rig.discrepancy.recording_base import pose_regressor
 from rig.units import DEG, STANDARD_GRAVITY
 
 
@@ -19,3 +20,10 @@ def gyro_g_sensitivity(sensor: str) -> Candidate:
                      lambda c: float(np.linalg.svd(c.reshape(3, 3), compute_uv=False)[0] * STANDARD_GRAVITY / DEG),
                      lambda c: {"Gs_deg_s_per_g": (c.reshape(3, 3) * STANDARD_GRAVITY / DEG).tolist()},
                      note="vertical Earth rate aliases into an isotropic Gs = -(Omega_v / g) I")
+
+
+@pose_regressor("gyro_g_sensitivity", columns=lambda table: table["f"] / STANDARD_GRAVITY, rank=0)
+def in_a_recordings_poses(c: np.ndarray, var: np.ndarray, resvar: np.ndarray) -> tuple[float, float, dict]:
+    """The gyro's pose means (deg/s) against the calibrated specific force (g): G, deg/s per g."""
+    return (float(np.linalg.svd(c.T, compute_uv=False)[0]), float(np.sqrt(np.max(var) * np.mean(resvar))),
+            {"G_deg_s_per_g": c.T.tolist()})
