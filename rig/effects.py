@@ -4,11 +4,13 @@ An entry says what the effect is called, which sensors it acts on, the unit its 
 looks for it: the discrepancy analysis of a turntable session (`family="model"`, a candidate test in
 `rig.discrepancy.candidates`) or the twin of a recording (`family="noise"`, fitted from the noise statistics by
 `procedures.twin_extension`). The simulated world's terms (`fixtures.world.effects`) and the analysis's candidate
-tests register themselves against these names; `tests/rig/test_effects_registry.py` checks that every entry has
-its simulator term, its draw range and its candidate test, or says why it has none.
+tests register themselves against these names, one module per effect, found by `discover`;
+`tests/rig/test_effects_registry.py` checks that every entry has its simulator term, its draw range and its
+candidate test, or says why it has none.
 
-A new effect: one entry here, its simulator term (with its realistic range) and its candidate test; nothing else
-lists effect names.
+A new effect: one entry here, its simulator term in `fixtures/world/effects/<name>.py` (with its realistic range)
+and its candidate test in `rig/discrepancy/candidates/<name>.py`; nothing else lists effect names
+(`tests/rig/test_effects_extension.py`).
 """
 
 from __future__ import annotations
