@@ -15,31 +15,35 @@ from typing import Callable
 
 import numpy as np
 
-from fixtures.world.noise_effects import (BiasInstability, HoldNotStill, Quantisation, RateRandomWalk, Saturation,
+from fixtures.world.effects.noise import (BiasInstability, HoldNotStill, Quantisation, RateRandomWalk, Saturation,
                                           ShapedNoise)
 from procedures.twin import Replay
 from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
 from rig.noise.allan import allan_deviation, fit_noise
 from rig.noise.statistics import value_step
+from rig.effects import unit_for
 from rig.session_data import SessionData
+from rig.units import REPORT_UNITS
 
 SHAKE_TAU_S = 0.05        # a hand's tremor (8-12 Hz) and a soft mount's ringing, as a correlation time
-REPORT = {"accel": ("m/s^2", 1.0), "gyro": ("deg/s", math.pi / 180), "mag": ("uT", 1.0)}
 
 
 @dataclass
 class Cause:
-    effect: str
+    effect: str                                    # the vocabulary's name (rig.effects), read from the world's term
     sensor: str
-    magnitude: float
-    unit: str
+    magnitude: float                               # in the vocabulary's unit (`unit`)
     params: dict
     governs: tuple[str, ...]                       # statistic families it can move
     make: Callable[[int], list]                    # the world's effects for a replica's seed
     quiet: tuple[str, ...] = ()                    # sensors whose white noise it replaces
     brings_back: list[str] = field(default_factory=list)
     rate: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None   # rad/s it adds to the gyro at (t, f)
+
+    @property
+    def unit(self) -> str:
+        return unit_for(self.effect, self.sensor)
 
 
 def outside(real: dict, bands: dict) -> set[str]:
@@ -82,8 +86,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
     fams = off_families(real, bands, off, replicas)
     for sensor, model in replay.sensors.items():
         y = session.raw[sensor]
-        scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT[sensor][1]       # reported unit per raw unit
-        unit = REPORT[sensor][0]
+        scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT_UNITS[sensor][1]   # reported unit per raw unit
         still = _clean(y[longest.rows])
         q = None
         if f"{sensor}.step" in fams and replay.units[sensor] != "counts":
@@ -93,7 +96,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
             white = pooled_noise(session, rec, sensor, q)       # the noise ahead of the rounding the step implies
             noise = [] if shaped else [lambda seed, s=sensor, w=white: ShapedNoise(s, taps=np.ones((3, 1)), std=w,
                                                                                   seed=seed * 7 + 6)]
-            causes.append(Cause("quantisation", sensor, float((q * scale).max()), unit,
+            causes.append(Cause(Quantisation.name, sensor, float((q * scale).max()),
                                 {"q": (q * scale).tolist(), "noise_ahead_of_rounding_raw": white.tolist()},
                                 (f"{sensor}.step", f"{sensor}.adev", f"{sensor}.psd", f"{sensor}.spread"),
                                 lambda seed, s=sensor, q=q, noise=noise: [f(seed) for f in noise] + [Quantisation(s, q=q)],
@@ -103,7 +106,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
             floors[sensor] = std
             taps = np.array([spectral_taps(still[:, k], replay.rate_hz) for k in range(3)])
             effect = ShapedNoise(sensor, taps=taps, std=std)
-            causes.append(Cause("white_noise_mismatch", sensor, effect.magnitude(), "dimensionless",
+            causes.append(Cause(effect.name, sensor, effect.magnitude(),
                                 {"std_raw": std.tolist(), "taps": int(taps.shape[1]),
                                  "model": "the recording's own spectrum (longest pose), at its quieter poses' level"},
                                 (f"{sensor}.adev", f"{sensor}.psd", f"{sensor}.spread"),
@@ -116,8 +119,8 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
             if (sigma > 0).any():
                 centres = [float(np.mean(session.t[p.rows])) for p in rec.poses]
                 tau = float(max(np.median(np.diff(centres)) if len(centres) > 1 else 10.0, 1.0))
-                causes.append(Cause("bias_instability", sensor,
-                                    float((sigma * scale).max() * 0.618 / math.sqrt(2 * math.log(2) / math.pi)), unit,
+                causes.append(Cause(BiasInstability.name, sensor,
+                                    float((sigma * scale).max() * 0.618 / math.sqrt(2 * math.log(2) / math.pi)),
                                     {"sigma": (sigma * scale).tolist(), "tau_s": tau},
                                     (mean_fam, f"{sensor}.bias_scatter", f"{sensor}.norm_scatter", f"{sensor}.adev"),
                                     lambda seed, s=sensor, sg=sigma, tau=tau: [BiasInstability(s, sigma=sg, tau_s=tau,
@@ -126,14 +129,14 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
         long_off = [n for n in off if n.startswith(f"{sensor}.adev") and _tau(n) >= 0.1 * len(still) / replay.rate_hz]
         if f"{sensor}.adev" in fams and long_off and terms.K > 0:
             K = np.array([fit_noise(allan_deviation(still[:, k], replay.rate_hz)).K for k in range(3)])
-            causes.append(Cause("rate_random_walk", sensor, float((K * scale).max()), unit + " per sqrt(s)",
+            causes.append(Cause(RateRandomWalk.name, sensor, float((K * scale).max()),
                                 {"K": (K * scale).tolist()}, (f"{sensor}.adev", mean_fam, f"{sensor}.bias_scatter"),
                                 lambda seed, s=sensor, K=K: [RateRandomWalk(s, K=K, seed=seed * 7 + 3)]))
         if f"{sensor}.pinned" in fams:
             clean = _clean(y)
             lo, hi = clean.min(axis=0), clean.max(axis=0)
             share = float(100 * np.mean((clean == lo) | (clean == hi)))
-            causes.append(Cause("saturation", sensor, share, "percent", {"low": lo.tolist(), "high": hi.tolist()},
+            causes.append(Cause(Saturation.name, sensor, share, {"low": lo.tolist(), "high": hi.tolist()},
                                 (f"{sensor}.pinned",), lambda seed, s=sensor, lo=lo, hi=hi: [Saturation(s, low=lo, high=hi)]))
     if {"gyro.spread", "accel.spread"} & fams and "gyro" in replay.sensors:
         causes.append(_hold_not_still(session, rec, real, bands, replay, floors))
@@ -172,7 +175,7 @@ def _hold_not_still(session: SessionData, rec: RecordingCalibration, real: dict,
     def make(seed):
         return [HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=gyro_env, seed=seed * 7 + 4),
                 HoldNotStill("accel", shake_rms=shake_rms, tau_s=SHAKE_TAU_S, envelope=accel_env, seed=seed * 7 + 5)]
-    return Cause("hold_not_still", "gyro", rms_dps, "deg/s",
+    return Cause(HoldNotStill.name, "gyro", rms_dps,
                  {"rms_dps": rms_dps, "shake_rms_mps2": shake_rms,
                   "per_pose_dps": dict(zip([p.name for p in rec.poses], np.degrees(rates).tolist()))},
                  ("gyro.spread", "accel.spread", "gyro.adev", "gyro.psd", "accel.adev", "accel.psd"), make)

@@ -6,7 +6,6 @@ the specific force at 0.2 deg/s per g, which without this the twin could only ca
 from __future__ import annotations
 
 import copy
-import math
 from collections.abc import Callable
 
 import numpy as np
@@ -17,11 +16,6 @@ from rig.calibration.heldout import heldout_scores
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.recording import recording_tests
 from rig.session_data import SessionData, filled
-
-G0 = 9.80665
-DEG = math.pi / 180
-GYRO_MEANS = ("gyro.hold_mean", "gyro.bias_scatter")
-GYRO_MOTION = ("gyro.turn_error", "gyro.carry_error")
 
 
 def model_causes(session: SessionData, rec: RecordingCalibration) -> tuple[list[Cause], list[dict]]:
@@ -60,22 +54,11 @@ def heldout_change(session: SessionData, rec: RecordingCalibration, causes: list
 
 
 def _cause(test: dict) -> Cause | None:
-    p = test["params"]
-    if test["effect"] == "gyro_g_sensitivity":
-        Gs = np.array(p["G_deg_s_per_g"]) * DEG / G0
-        return Cause("gyro_g_sensitivity", "gyro", test["magnitude"], test["unit"], p, GYRO_MEANS,
-                     lambda seed, Gs=Gs: [EFFECTS["gyro_g_sensitivity"]("gyro", Gs=Gs)], rate=lambda t, f, Gs=Gs: f @ Gs.T)
-    if test["effect"] == "bias_drift":
-        d = np.array(p["d_deg_s_per_hour"]) * DEG / 3600.0
-        return Cause("bias_drift", "gyro", test["magnitude"], test["unit"], p, (*GYRO_MEANS, "gyro.adev"),
-                     lambda seed, d=d: [EFFECTS["bias_drift"]("gyro", d=d)], rate=lambda t, f, d=d: np.multiply.outer(t, d))
-    if test["effect"] == "time_offset":
-        tau = float(test["magnitude"])
-        return Cause("time_offset", "gyro", tau, test["unit"], p, GYRO_MOTION,
-                     lambda seed, tau=tau: [EFFECTS["time_offset"]("gyro", tau=tau)])
-    if test["effect"] == "accel_scale_nonlinearity":
-        K2 = np.array(p["K2"])
-        return Cause("accel_scale_nonlinearity", "accel", test["magnitude"], test["unit"], p,
-                     ("accel.norm_residual", "accel.norm_scatter"),
-                     lambda seed, K2=K2: [EFFECTS["accel_scale_nonlinearity"]("accel", K2=K2)])
-    return None
+    """A finding as a cause, where its simulator term says how the twin takes it (`from_recording_test`)."""
+    term = EFFECTS[test["effect"]]
+    if not term.twin_statistics:
+        return None
+    sensor, magnitude, params = test["sensor"], test["magnitude"], test["params"]
+    effect = term.from_recording_test(sensor, magnitude, params)
+    return Cause(test["effect"], sensor, magnitude, params, term.twin_statistics,
+                 lambda seed: [term.from_recording_test(sensor, magnitude, params)], rate=effect.added_rate)

@@ -4,15 +4,20 @@ An entry says what the effect is called, which sensors it acts on, the unit its 
 looks for it: the discrepancy analysis of a turntable session (`family="model"`, a candidate test in
 `rig.discrepancy.candidates`) or the twin of a recording (`family="noise"`, fitted from the noise statistics by
 `procedures.twin_extension`). The simulated world's terms (`fixtures.world.effects`) and the analysis's candidate
-tests register themselves against these names; `tests/rig/test_effects_registry.py` checks that every entry has
-its simulator term, its draw range and its candidate test, or says why it has none.
+tests register themselves against these names, one module per effect, found by `discover`;
+`tests/rig/test_effects_registry.py` checks that every entry has its simulator term, its draw range and its
+candidate test, or says why it has none.
 
-A new effect: one entry here, its simulator term (with its realistic range) and its candidate test; nothing else
-lists effect names.
+A new effect: one entry here, its simulator term in `fixtures/world/effects/<name>.py` (with its realistic range)
+and its candidate test in `rig/discrepancy/candidates/<name>.py`; nothing else lists effect names
+(`tests/rig/test_effects_extension.py`).
 """
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from rig.units import REPORT_UNITS
@@ -81,3 +86,16 @@ def effect(name: str) -> EffectSpec:
 
 def unit_for(name: str, sensor: str) -> str:
     return effect(name).unit_for(sensor)
+
+
+def discover(package: str, path: Iterable[str]) -> list[str]:
+    """Import every module of `package` (its `__path__`), in name order, and return their names.
+
+    The simulator terms (`fixtures.world.effects`) and the candidate tests (`rig.discrepancy.candidates`) register
+    themselves against the vocabulary when their module is imported; each package's `__init__` calls this, so a
+    new effect's file is found without being listed. This loader imports the package's own modules by name
+    (importlib) as its whole job: it is not an import placed in a function to dodge a loop."""
+    names = sorted(m.name for m in pkgutil.iter_modules(list(path)) if not m.name.startswith("_"))
+    for name in names:
+        importlib.import_module(f"{package}.{name}")
+    return names

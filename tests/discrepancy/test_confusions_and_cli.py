@@ -100,7 +100,8 @@ def test_motor_field_that_looks_like_soft_iron_is_reported_unidentifiable():
 def test_isotropic_g_sensitivity_is_not_taken_for_the_earth_rate():
     """Gs = c I has exactly the columns of a vertical Earth rate; the Earth's known 15 deg/h rules it out."""
     from fixtures.world.draw import standard_plan
-    from fixtures.world.effects import DEG, G0, GyroGSensitivity
+    from fixtures.world.effects import DEG, G0
+    from fixtures.world.effects.gyro_g_sensitivity import GyroGSensitivity
     from fixtures.world.model import random_sensor_models
     from fixtures.world.session_sim import simulate_session
     from tests.discrepancy.conftest import blind

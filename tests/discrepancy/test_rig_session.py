@@ -8,7 +8,7 @@ g-sensitivity must be named and sized."""
 
 import numpy as np
 
-from fixtures.world.effects import GyroGSensitivity
+from fixtures.world.effects.gyro_g_sensitivity import GyroGSensitivity
 from procedures.session import plan_for, record
 from rig.assembly import build_sim
 from rig.config import load_config

@@ -8,7 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from fixtures.world.effects import TableAxisMisalignment, TableMagneticDisturbance
+from fixtures.world.effects.table_axis_misalignment import TableAxisMisalignment
+from fixtures.world.effects.table_magnetic_disturbance import TableMagneticDisturbance
 
 from .archive import small_plan
 from .conftest import make_archive, no_traceback, rig

@@ -11,7 +11,7 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.support import expected_conditions
 from selenium.webdriver.support.ui import Select, WebDriverWait
 
-from fixtures.world.effects import TableAxisMisalignment
+from fixtures.world.effects.table_axis_misalignment import TableAxisMisalignment
 
 from .browser import screenshot
 from .conftest import make_archive, rig

@@ -1,5 +1,6 @@
-"""Known effects added to a real recording (issue 13, item 5), written from the vocabulary's laws (effects.md), at the
-typical sizes of effects-research.md section 4: the analysis must find them blind on top of the real noise."""
+"""Known effects added to a real recording (issue 13, item 5), each by its simulator term's law for recordings
+(`into_recording`, effects.md), at the term's realistic sizes (effects-research.md section 4): the analysis must
+find them blind on top of the real noise."""
 
 from __future__ import annotations
 
@@ -7,15 +8,16 @@ import copy
 
 import numpy as np
 
+from fixtures.world.effects import EFFECTS as TERMS
+from fixtures.world.effects_base import RANGES
 from rig.calibration.recording import RecordingCalibration
+from rig.effects import EFFECTS as VOCABULARY
 from rig.session_data import SessionData
 
-G0 = 9.80665
-DEG = np.pi / 180
-SIZES = {"gyro_g_sensitivity": (0.05, 0.1),          # deg/s per g (ITG-3200 class)
-         "bias_drift": (1.0, 3.0),                   # deg/s per hour on the gyro (a temperature ramp)
-         "time_offset": (0.003, 0.02),               # s, the gyro stream late
-         "accel_scale_nonlinearity": (1.5e-4, 5e-4)}  # 1/(m/s^2)
+# effect -> its simulator term's realistic range on the sensor a recording shows it on, for every term that says how
+# it adds itself to a recording (`into_recording`)
+SIZES = {name: RANGES[(name, TERMS[name].recording_sensor)] for name in VOCABULARY
+         if name in TERMS and TERMS[name].recording_sensor}
 
 
 def _calibrated(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
@@ -35,32 +37,12 @@ def inject(session: SessionData, rec: RecordingCalibration, effect: str, size: f
     """A copy of the recording with `effect` of `size` (the vocabulary's magnitude) added; and what was added."""
     out = copy.copy(session)
     out.raw = dict(session.raw)
-    if effect == "gyro_g_sensitivity":
-        A = rng.normal(size=(3, 3))
-        A *= size / np.linalg.svd(A, compute_uv=False)[0]             # deg/s per g, largest singular value = size
-        f = _calibrated(session, rec, "accel")
-        w = _calibrated(session, rec, "gyro") + (f / G0) @ A.T * DEG
-        out.raw["gyro"] = _keep_gaps(session.raw["gyro"], _raw(rec, "gyro", w))
-        return out, {"G_deg_s_per_g": A}
-    if effect == "bias_drift":
-        d = rng.normal(size=3)
-        d *= size / np.abs(d).max()                                    # deg/s per hour, largest axis = size
-        w = _calibrated(session, rec, "gyro") + np.outer((session.t - session.t.mean()) / 3600, d) * DEG
-        out.raw["gyro"] = _keep_gaps(session.raw["gyro"], _raw(rec, "gyro", w))
-        return out, {"d_deg_s_per_hour": d}
-    if effect == "time_offset":
-        y = session.raw["gyro"]
-        have = ~np.isnan(y).any(axis=1)
-        late = np.stack([np.interp(session.t - size, session.t[have], y[have, k]) for k in range(3)], axis=1)
-        out.raw["gyro"] = _keep_gaps(y, late)
-        return out, {"tau_s": size}
-    if effect == "accel_scale_nonlinearity":
-        K2 = rng.uniform(0.5, 1.0, 3) * size * rng.choice([-1, 1], 3)
-        K2[np.argmax(np.abs(K2))] = size * np.sign(K2[np.argmax(np.abs(K2))])
-        a = _calibrated(session, rec, "accel")
-        out.raw["accel"] = _keep_gaps(session.raw["accel"], _raw(rec, "accel", a + K2 * a ** 2))
-        return out, {"K2": K2}
-    raise ValueError(effect)
+    term = TERMS[effect]
+    calibrated = {sensor: _calibrated(session, rec, sensor) for sensor in ("accel", "gyro") if sensor in rec.sensors}
+    stream, added = term.into_recording(rng, size, session.t, calibrated)
+    sensor = term.recording_sensor
+    out.raw[sensor] = _keep_gaps(session.raw[sensor], _raw(rec, sensor, stream))
+    return out, added
 
 
 def _keep_gaps(before: np.ndarray, after: np.ndarray) -> np.ndarray:

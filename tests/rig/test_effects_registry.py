@@ -1,5 +1,6 @@
 """The one registry of effects (rig.effects): every name has its simulator term, its draw range and its candidate
-test, or says why it has none; the vocabulary of effects.md is all in it; units agree wherever an effect is named."""
+test, or says why it has none; an effect a recording can show has its law for recordings and its place in the twin;
+the vocabulary of effects.md is all in it; units agree wherever an effect is named."""
 
 import re
 
@@ -10,7 +11,7 @@ import fixtures.world  # noqa: F401  (registers every simulator term, the noise 
 from fixtures.world.draw import draw_effect, hidden_effect_cases
 from fixtures.world.effects_base import EFFECTS as TERMS
 from fixtures.world.effects_base import RANGES, Effect, simulator_term
-from rig.discrepancy.candidates import CANDIDATES, candidate_test
+from rig.discrepancy.candidates import CANDIDATES, POSE_REGRESSORS, RECORDING_TESTS, candidate_test
 from rig.effects import EFFECTS, TRIADS, effect
 from tests.paths import SHARED
 
@@ -53,6 +54,20 @@ def test_every_model_effect_has_a_draw_range_per_sensor_and_a_candidate_test(nam
     for sensor in spec.sensors:
         lo, hi = RANGES[(name, sensor)]
         assert 0 < lo <= hi
+
+
+@pytest.mark.parametrize("name", sorted(set(POSE_REGRESSORS) | set(RECORDING_TESTS)))
+def test_every_effect_a_recording_can_show_is_added_to_recordings_and_taken_into_the_twin(name):
+    term = TERMS[name]
+    assert term.recording_sensor in EFFECTS[name].sensors
+    lo, hi = RANGES[(name, term.recording_sensor)]
+    n = 200
+    t = np.linspace(0.0, 100.0, n)
+    calibrated = {"accel": np.tile([0.0, 0.0, 9.8], (n, 1)) + np.linspace(-1, 1, n)[:, None],
+                  "gyro": np.sin(t)[:, None] * np.ones((n, 3))}
+    stream, added = term.into_recording(np.random.default_rng(0), hi, t, calibrated)
+    assert stream.shape == (n, 3) and not np.allclose(stream, calibrated[term.recording_sensor]) and added
+    assert term.twin_statistics and all(s.split(".")[0] in TRIADS for s in term.twin_statistics)
 
 
 @pytest.mark.parametrize("name", NOISE)

@@ -44,7 +44,7 @@ LAZY_ALLOWED = {
     ("fixtures.pytest_plugin", "fixtures.turntable"): "start-up: the pytest11 plugin loads in every pytest run of "
                                                       "the environment; the Modbus server (pymodbus) only when a test "
                                                       "asks for the fake turntable",
-    ("fixtures.world.noise_effects", "scipy.signal"): "start-up: scipy.signal only when a coloured noise is drawn",
+    ("fixtures.world.effects.noise", "scipy.signal"): "start-up: scipy.signal only when a coloured noise is drawn",
     ("procedures.twin_extension", "scipy.signal"): "start-up: scipy.signal only when a recording's spectrum is fitted",
 }
 

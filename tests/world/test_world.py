@@ -7,7 +7,9 @@ import pytest
 
 from fixtures.motion import TableTrack
 from fixtures.world import EFFECTS, Environment, SensorModel, World, random_sensor_models
-from fixtures.world.effects import EarthRotation, TableMagneticDisturbance, TimeOffset
+from fixtures.world.effects.earth_rotation import EarthRotation
+from fixtures.world.effects.table_magnetic_disturbance import TableMagneticDisturbance
+from fixtures.world.effects.time_offset import TimeOffset
 from fixtures.world.session_sim import SessionPlan, simulate_session
 from rig.clock import SimClock
 from rig.rotations import matrix_from_rotvec, rot_x, rot_z
