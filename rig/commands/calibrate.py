@@ -8,8 +8,8 @@ from pathlib import Path
 
 import click
 
-from rig.config import RigConfig, load_config
 from rig import exits
+from rig.config import RigConfig, load_config
 from rig.exits import (
     CommandError,
     Exit,
