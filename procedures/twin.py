@@ -83,15 +83,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
         f = rec.sensors["accel"].apply(filled(session.raw["accel"]))
         omega -= added_rate(t, f) - added_rate(t, f)[pose_of >= 0].mean(axis=0)
     omega[pose_of >= 0] = 0.0
-    R = np.empty((n, 3, 3))
-    current = _align(np.eye(3), up[pose_of[0]] if pose_of[0] >= 0 else _unit(np.array([0.0, 0.0, 1.0])))
-    for i in range(n):
-        k = pose_of[i]
-        if k >= 0 and (i == 0 or pose_of[i - 1] != k):
-            current = _align(current, up[k])
-        elif i > 0 and k < 0:
-            current = current @ matrix_from_rotvec(0.5 * (omega[i - 1] + omega[i]) * (t[i] - t[i - 1]))
-        R[i] = current
+    R = _attitudes(t, omega, pose_of, up)
     sensors = {name: SensorModel(name, cal.H, cal.B, _white_noise(session, name, rec))
                for name, cal in rec.sensors.items() if name in session.raw}
     env = Environment(gravity=session.gravity, field_uT=session.field_uT or 50.0)
@@ -109,6 +101,27 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
                   rec.sensors["gyro"].extra.get("carry_sd"))
+
+
+def _attitudes(t: np.ndarray, omega: np.ndarray, pose_of: np.ndarray, up: list[np.ndarray]) -> np.ndarray:
+    """R(t) (n, 3, 3): turned the least onto each pose's gravity direction where the pose begins, held through
+    it, and between poses carried by the rate, one trapezoid step per sample. The steps' rotations are formed
+    at once; only their product runs in order, over the samples where something changes."""
+    n = len(t)
+    R = np.empty((n, 3, 3))
+    current = _align(np.eye(3), up[pose_of[0]] if pose_of[0] >= 0 else _unit(np.array([0.0, 0.0, 1.0])))
+    entry = (pose_of >= 0) & np.r_[True, pose_of[1:] != pose_of[:-1]]
+    moving = np.r_[False, pose_of[1:] < 0]
+    i_move = np.flatnonzero(moving)
+    step = np.empty((n, 3, 3))
+    step[i_move] = matrix_from_rotvec(0.5 * (omega[i_move - 1] + omega[i_move]) * (t[i_move] - t[i_move - 1])[:, None])
+    changes = np.flatnonzero(entry | moving)
+    ends = np.r_[changes[1:], n]
+    R[:changes[0] if changes.size else n] = current
+    for i, end in zip(changes, ends):
+        current = _align(current, up[pose_of[i]]) if entry[i] else current @ step[i]
+        R[i:end] = current
+    return R
 
 
 class ReplayedAttitude:
@@ -176,7 +189,7 @@ def replica_runs(jobs: list[ReplicaJob], workers: int | None = None) -> list[tup
     try:
         if workers > 1 and "fork" in mp.get_all_start_methods():
             with mp.get_context("fork").Pool(workers) as pool:
-                results = pool.map(_one_replica, tasks, chunksize=max(1, len(tasks) // (8 * workers)))
+                results = pool.map(_one_replica, tasks, chunksize=1)
         else:
             results = [_one_replica(task) for task in tasks]
     finally:
