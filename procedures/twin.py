@@ -37,7 +37,7 @@ class Replay:
     """What every replica of one recording shares."""
 
     t: np.ndarray
-    attitude: RecordedAttitude
+    attitude: "ReplayedAttitude"
     sensors: dict[str, SensorModel]       # raw units: y = inv(H) u + B + noise
     units: dict[str, str]
     missing: dict[str, np.ndarray]        # rows where the recording had no sample of the sensor
@@ -83,15 +83,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
         f = rec.sensors["accel"].apply(filled(session.raw["accel"]))
         omega -= added_rate(t, f) - added_rate(t, f)[pose_of >= 0].mean(axis=0)
     omega[pose_of >= 0] = 0.0
-    R = np.empty((n, 3, 3))
-    current = _align(np.eye(3), up[pose_of[0]] if pose_of[0] >= 0 else _unit(np.array([0.0, 0.0, 1.0])))
-    for i in range(n):
-        k = pose_of[i]
-        if k >= 0 and (i == 0 or pose_of[i - 1] != k):
-            current = _align(current, up[k])
-        elif i > 0 and k < 0:
-            current = current @ matrix_from_rotvec(0.5 * (omega[i - 1] + omega[i]) * (t[i] - t[i - 1]))
-        R[i] = current
+    R = _attitudes(t, omega, pose_of, up)
     sensors = {name: SensorModel(name, cal.H, cal.B, _white_noise(session, name, rec))
                for name, cal in rec.sensors.items() if name in session.raw}
     env = Environment(gravity=session.gravity, field_uT=session.field_uT or 50.0)
@@ -103,12 +95,51 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
         env.declination_deg = float(np.degrees(np.arctan2(m_world[0], m_world[1])))
     if session.temp_c is not None and np.isfinite(session.temp_c).all():
         env.temperature = lambda tt, tc=session.temp_c: np.interp(tt, t, tc)
-    return Replay(t, RecordedAttitude(t, R, omega), sensors,
+    return Replay(t, ReplayedAttitude(RecordedAttitude(t, R, omega), t), sensors,
                   {s: session.meta.get("units", {}).get(s, "counts") for s in sensors},
                   {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
                   rec.sensors["gyro"].extra.get("carry_sd"))
+
+
+def _attitudes(t: np.ndarray, omega: np.ndarray, pose_of: np.ndarray, up: list[np.ndarray]) -> np.ndarray:
+    """R(t) (n, 3, 3): turned the least onto each pose's gravity direction where the pose begins, held through
+    it, and between poses carried by the rate, one trapezoid step per sample. The steps' rotations are formed
+    at once; only their product runs in order, over the samples where something changes."""
+    n = len(t)
+    R = np.empty((n, 3, 3))
+    current = _align(np.eye(3), up[pose_of[0]] if pose_of[0] >= 0 else _unit(np.array([0.0, 0.0, 1.0])))
+    entry = (pose_of >= 0) & np.r_[True, pose_of[1:] != pose_of[:-1]]
+    moving = np.r_[False, pose_of[1:] < 0]
+    i_move = np.flatnonzero(moving)
+    step = np.empty((n, 3, 3))
+    step[i_move] = matrix_from_rotvec(0.5 * (omega[i_move - 1] + omega[i_move]) * (t[i_move] - t[i_move - 1])[:, None])
+    changes = np.flatnonzero(entry | moving)
+    ends = np.r_[changes[1:], n]
+    R[:changes[0] if changes.size else n] = current
+    for i, end in zip(changes, ends):
+        current = _align(current, up[pose_of[i]]) if entry[i] else current @ step[i]
+        R[i:end] = current
+    return R
+
+
+class ReplayedAttitude:
+    """The replayed attitude evaluated once on the recording's own time grid, which every replica senses (each
+    sensor of each replica: 360 evaluations of 51 175 attitudes for the Xsens, a tenth of its analysis); other
+    times (a stream delayed by an effect) are interpolated as before. Callers get copies: nothing they do
+    reaches the next replica."""
+
+    def __init__(self, recorded: RecordedAttitude, t: np.ndarray) -> None:
+        self.recorded = recorded
+        self.t = np.asarray(t, dtype=float)
+        self._on_grid = recorded.attitude(self.t)
+
+    def attitude(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if t.shape == self.t.shape and np.array_equal(t, self.t):
+            return self._on_grid[0].copy(), self._on_grid[1].copy()
+        return self.recorded.attitude(t)
 
 
 def replica(replay: Replay, seed: int, effects=(), quiet=()) -> SessionData:
@@ -128,35 +159,109 @@ def replica(replay: Replay, seed: int, effects=(), quiet=()) -> SessionData:
                              sample_rate_hz=replay.rate_hz, source=f"twin of {replay.source}, trial {seed}")
 
 
+@dataclass
+class ReplicaJob:
+    """Replicas of one replay: the noise trials `seeds`, each with the effects `effects_for(seed)`; the `quiet`
+    sensors' white noise is left to an effect that replaces it."""
+
+    replay: Replay
+    seeds: list[int]
+    effects_for: Callable[[int], list] = lambda seed: []
+    quiet: tuple[str, ...] = ()
+
+
 def replica_statistics(replay: Replay, seeds, effects_for=lambda seed: (), quiet=(), workers: int | None = None
                        ) -> tuple[list[dict], int]:
     """Statistics of the replicas of `seeds` (each with the effects `effects_for(seed)`); and how many replicas
-    could not be calibrated (those are left out of the band, and counted). Replicas are independent, so they
-    run on every core (forked workers inherit the replay; nothing is pickled but seeds and statistics)."""
-    seeds = list(seeds)
-    workers = min(workers or os.cpu_count() or 1, len(seeds))
-    global _JOB
-    _JOB = (replay, effects_for, tuple(quiet))
-    if workers > 1 and "fork" in mp.get_all_start_methods():
-        with mp.get_context("fork").Pool(workers) as pool:
-            results = pool.map(_one_replica, seeds, chunksize=max(1, len(seeds) // (4 * workers)))
-    else:
-        results = [_one_replica(seed) for seed in seeds]
-    _JOB = None
-    out = [r for r in results if r is not None]
-    return out, len(results) - len(out)
+    could not be calibrated (those are left out of the band, and counted)."""
+    return replica_runs([ReplicaJob(replay, list(seeds), effects_for, tuple(quiet))], workers)[0]
 
 
-_JOB = None
-
-
-def _one_replica(seed: int) -> dict | None:
-    replay, effects_for, quiet = _JOB
-    rep = replica(replay, seed, effects_for(seed), quiet)
+def replica_runs(jobs: list[ReplicaJob], workers: int | None = None) -> list[tuple[list[dict], int]]:
+    """replica_statistics of several jobs at once, in one pool: replicas are independent, so every replica of
+    every job is one task for the next free core (forked workers inherit the replays; nothing is pickled but
+    indices and statistics), and no core waits for a job's last replica while another job has work. A replica's
+    statistics depend on its replay, seed and effects only, never on which worker ran it or when."""
+    tasks = [(j, seed) for j, job in enumerate(jobs) for seed in job.seeds]
+    workers = min(workers or os.cpu_count() or 1, len(tasks)) if tasks else 1
+    global _JOBS
+    _JOBS = jobs
     try:
-        return recording_statistics(rep, calibrate_recording(rep, carry_sd=replay.carry_sd))
+        if workers > 1 and "fork" in mp.get_all_start_methods():
+            with mp.get_context("fork").Pool(workers) as pool:
+                results = pool.map(_one_replica, tasks, chunksize=1)
+        else:
+            results = [_one_replica(task) for task in tasks]
+    finally:
+        _JOBS = None
+    out = []
+    for j in range(len(jobs)):
+        mine = [r for (k, _), r in zip(tasks, results) if k == j]
+        kept = [r for r in mine if r is not None]
+        out.append((kept, len(mine) - len(kept)))
+    return out
+
+
+_JOBS: list[ReplicaJob] | None = None
+
+
+def _one_replica(task: tuple[int, int]) -> dict | None:
+    j, seed = task
+    job = _JOBS[j]
+    rep = replica(job.replay, seed, job.effects_for(seed), job.quiet)
+    try:
+        return recording_statistics(rep, calibrate_recording(rep, carry_sd=job.replay.carry_sd))
     except CalibrationError:
         return None
+
+
+class Background:
+    """`fn(*args)` run in a forked process while this one goes on (the held-out refits beside the replicas: a
+    third process on two cores keeps both busy through the pools' last tasks and the steps between them);
+    `result()` waits for it. The arguments reach the child by the fork, not pickled. Where the child fails, or
+    there is no fork, `result()` runs `fn` here, so an error is raised as it would have been without this."""
+
+    def __init__(self, fn: Callable, *args) -> None:
+        global _BACKGROUND
+        self.fn, self.args, self._pool, self._async = fn, args, None, None
+        if (os.cpu_count() or 1) > 1 and "fork" in mp.get_all_start_methods():
+            _BACKGROUND = (fn, args)
+            try:
+                self._pool = mp.get_context("fork").Pool(1)
+            finally:
+                _BACKGROUND = None
+            self._async = self._pool.apply_async(_run_background)
+
+    def result(self):
+        if self._async is not None:
+            ok, value = self._async.get()
+            self.close()
+            if ok:
+                return value
+        return self.fn(*self.args)
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool, self._async = None, None
+
+    def __enter__(self) -> "Background":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+_BACKGROUND = None
+
+
+def _run_background() -> tuple[bool, object]:
+    fn, args = _BACKGROUND
+    try:
+        return True, fn(*args)
+    except Exception:          # raised again where it belongs: result() runs fn in the parent
+        return False, None
 
 
 def bands(replicas: list[dict], lo: float = 1.0, hi: float = 99.0, min_share: float = 0.8) -> dict[str, tuple]:
