@@ -21,6 +21,7 @@ from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.io.imu_tk import read_imu_tk
 from rig.io.session_csv import read_session
+from rig.pipeline.move_rows import refine_vector_with_moves
 from rig.pipeline.result import SessionCalibration, summary_lines
 from rig.pipeline.screening import (check_finite, find_bad_holds, warn_empty_holds, warn_partial_nan,
                                     without_steps)
@@ -33,10 +34,12 @@ from rig.units import STANDARD_GRAVITY
 
 
 def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: float = 0.5,
-                      gyro_samples: str = "auto") -> SessionCalibration:
+                      gyro_samples: str = "auto", move_samples: bool = True) -> SessionCalibration:
     """Calibrate every sensor of `session`; raises CalibrationError where the data cannot support it.
 
     gyro_samples: what a raw gyro sample means, "point" or "mean" (gyro.calibrate_gyro), or "auto".
+    move_samples: the joint accelerometer and magnetometer fits use the samples of the moves too
+    (rig.pipeline.move_rows); False keeps them to the hold means.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -62,6 +65,8 @@ def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: 
             sensors[name] = calibrate_vector(session, name, holds[name], method, warnings)
         check_result(name, sensors[name], reference_norm(session, name), warnings)
     add_lever_arm(session, sensors, warnings)
+    if move_samples and method == "joint":
+        refine_vector_with_moves(session, holds, sensors, excluded, warnings, settle_s)
     result = SessionCalibration(sensors, warnings, excluded_steps=excluded,
                                 holds_used={s: len(h.step) for s, h in holds.items()})
     result.summary = summary_lines(result)
