@@ -89,6 +89,10 @@ def predict(config: RigConfig, schedule: list[Orientation], hold_s: float, noise
     n = len(schedule)
     samples = np.full(n, max(int(hold_s * s.rate_hz), 1))
     still_s = t.settle_s + 2 * t.poll_every / s.rate_hz
+    moving = None
+    if move_samples:
+        moving = move_rotations(np.array([o.outer_deg for o in schedule]), np.array([o.inner_deg for o in schedule]),
+                                config.geometry, t.speed_dps, t.accel_dps2, s.rate_hz, still_s)
     out = {}
     for name in SENSORS:
         sigma = noise.sigma[name]
@@ -97,12 +101,8 @@ def predict(config: RigConfig, schedule: list[Orientation], hold_s: float, noise
         else:
             ref = np.array([0.0, 0.0, config.gravity_mps2]) if name == "accel" else field_world(config.field_uT)
             every = 1 if name == "accel" else max(s.mag_every, 1)
-            moving = None
-            if move_samples:
-                moving = move_rotations(np.array([o.outer_deg for o in schedule]),
-                                        np.array([o.inner_deg for o in schedule]), config.geometry, t.speed_dps,
-                                        t.accel_dps2, s.rate_hz / every, still_s)
-            H, B = vector_bound(R, ref, sigma, np.maximum(samples // every, 1), moving)
+            H, B = vector_bound(R, ref, sigma, np.maximum(samples // every, 1),
+                                None if moving is None else moving[::every])
         out[name] = {"H_rel_pct": 100 * H, "B_sd": B, "unit": UNITS[name]}
     return out
 

@@ -28,7 +28,7 @@ import numpy as np
 from rig.calibration.bounds import cramer_rao
 from rig.errors import CalibrationError
 from rig.rotations import TableGeometry, rotvec_from_matrix
-from rig.trapezoid import Trapezoid, trapezoid
+from rig.trapezoid import trapezoid
 
 # Angle noise of one hold's reference orientation (rad): the encoder mean of a hold against the table's true
 # attitude (a 0.001 deg encoder step, the servo's dither within its tolerance).
@@ -59,13 +59,14 @@ def vector_bound(R: np.ndarray, reference_world: np.ndarray, sigma: float, sampl
     return cr.H_rel_rms, cr.B_rms
 
 
-def _axis_angles(profile: Trapezoid, distance: float, accel: float, t: np.ndarray) -> np.ndarray:
-    """Angle travelled (deg, signed) at times t of a rest-to-rest trapezoid over `distance`."""
-    if profile.peak == 0:
-        return np.zeros_like(t)
-    t1, t2, T = profile.t_accel, profile.t_accel + profile.t_cruise, profile.duration
-    d = abs(distance)
-    p = np.where(t < t1, 0.5 * accel * t**2, np.where(t < t2, 0.5 * accel * t1**2 + profile.peak * (t - t1),
+def _travelled(distance: np.ndarray, speed: float, accel: float, t: np.ndarray) -> np.ndarray:
+    """Angle travelled (deg, signed) at times t (row-wise) of rest-to-rest trapezoids over `distance` (rows)."""
+    d = np.abs(distance)
+    peak = np.minimum(speed, np.sqrt(d * accel))
+    t1 = peak / accel
+    safe = np.where(peak > 0, peak, 1.0)
+    T = 2 * t1 + np.where(peak > 0, (d - peak * t1) / safe, 0.0)
+    p = np.where(t < t1, 0.5 * accel * t**2, np.where(t < T - t1, 0.5 * accel * t1**2 + peak * (t - t1),
                                                         np.where(t < T, d - 0.5 * accel * (T - t).clip(0)**2, d)))
     return np.sign(distance) * p
 
@@ -73,15 +74,19 @@ def _axis_angles(profile: Trapezoid, distance: float, accel: float, t: np.ndarra
 def move_rotations(outer_deg: np.ndarray, inner_deg: np.ndarray, geometry: TableGeometry, speed_dps: float,
                    accel_dps2: float, rate_hz: float, still_s: float) -> np.ndarray:
     """Fixture -> world orientations (m, 3, 3) at every sample (`rate_hz`) of the moves between consecutive
-    holds at the table angles given (n,): both axes start together on their own trapezoids, then `still_s` at
-    the target before the hold begins."""
-    out = []
-    for a0, b0, a1, b1 in zip(outer_deg[:-1], inner_deg[:-1], outer_deg[1:], inner_deg[1:]):
-        pa, pb = trapezoid(a1 - a0, speed_dps, accel_dps2), trapezoid(b1 - b0, speed_dps, accel_dps2)
-        t = np.arange(0.0, max(pa.duration, pb.duration) + still_s, 1.0 / rate_hz)
-        out.append(geometry.rotation(a0 + _axis_angles(pa, a1 - a0, accel_dps2, t),
-                                     b0 + _axis_angles(pb, b1 - b0, accel_dps2, t)))
-    return np.concatenate(out) if out else np.zeros((0, 3, 3))
+    holds at the table angles given (n,): both axes start together on their own trapezoids (rig.trapezoid,
+    equal acceleration and deceleration), then `still_s` at the target before the hold begins."""
+    outer_deg, inner_deg = np.asarray(outer_deg, dtype=float), np.asarray(inner_deg, dtype=float)
+    if len(outer_deg) < 2:
+        return np.zeros((0, 3, 3))
+    da, db = np.diff(outer_deg), np.diff(inner_deg)
+    seconds = [max(trapezoid(a, speed_dps, accel_dps2).duration, trapezoid(b, speed_dps, accel_dps2).duration)
+               for a, b in zip(da, db)]
+    counts = np.array([len(np.arange(0.0, s + still_s, 1.0 / rate_hz)) for s in seconds])
+    move = np.repeat(np.arange(len(da)), counts)
+    t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / rate_hz
+    return geometry.rotation(outer_deg[move] + _travelled(da[move], speed_dps, accel_dps2, t),
+                             inner_deg[move] + _travelled(db[move], speed_dps, accel_dps2, t))
 
 
 def gyro_bound(R: np.ndarray, move_s: np.ndarray, sigma: float, rate_hz: float,

@@ -29,6 +29,7 @@ from rig.errors import CalibrationError
 
 N_PARAMS = 15  # B (3) + H (9) + direction of v (2) + sample-time offset delta (1)
 MAX_OFFSET_S = 0.05   # a fitted delta beyond this is no timing offset but a misfit: the move samples are refused
+REWEIGHT_ABOVE = 1.1  # move residuals scattered beyond this many times the sensor's noise: weighted by their scatter
 
 
 @dataclass
@@ -49,7 +50,24 @@ def calibrate_with_moves(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.
                          norm: float, moves: MoveSamples) -> TriadCalibration:
     """Maximum likelihood over the hold means (standard errors `sigma_holds` (n, 3)) and the move samples,
     from the hold-only fit `hold_fit` (its B, H and extra["reference_world"]). Raises CalibrationError where
-    the fit fails or the samples misfit the model (a time offset beyond MAX_OFFSET_S)."""
+    the fit fails or the samples misfit the model (a time offset beyond MAX_OFFSET_S).
+
+    The move samples are weighted by the sensor's noise, or by their own scatter about the fit where that is
+    larger (a reference noisier than the encoders, an optical tracker's; the lever arm's specific force from a
+    differentiated gyro): fitted once, the scatter of the move residuals per axis measured, fitted again."""
+    fit = _fit(hold_fit, y_means, R, sigma_holds, norm, moves)
+    scatter = np.sqrt(np.mean(np.square(fit.extra.pop("_move_residuals")), axis=0))
+    if np.all(scatter <= moves.sigma * REWEIGHT_ABOVE):
+        return fit
+    heavier = MoveSamples(moves.y, moves.R, moves.omega, moves.extra, np.maximum(moves.sigma, scatter))
+    fit = _fit(hold_fit, y_means, R, sigma_holds, norm, heavier)
+    fit.extra.pop("_move_residuals")
+    fit.extra["move_sample_sigma"] = np.maximum(moves.sigma, scatter).tolist()
+    return fit
+
+
+def _fit(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.ndarray, sigma_holds: np.ndarray,
+         norm: float, moves: MoveSamples) -> TriadCalibration:
     v0 = np.asarray(hold_fit.extra["reference_world"], dtype=float)
     Y = np.vstack([np.asarray(y_means, dtype=float), moves.y])
     RR = np.concatenate([np.asarray(R, dtype=float), moves.R])
@@ -98,7 +116,7 @@ def calibrate_with_moves(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.
                                "(beyond any sample clock's offset): the moves' reference does not describe them")
     dof = 3 * len(Y) - N_PARAMS
     chi2 = float(2 * sol.cost / dof)
-    out = TriadCalibration(B=B, H=H, method="joint-ml-moves", iterations=hold_fit.iterations + int(sol.nfev),
+    out = TriadCalibration(B=B, H=H, method=hold_fit.method, iterations=hold_fit.iterations + int(sol.nfev),
                            converged=True, warnings=list(hold_fit.warnings))
     try:
         cov = np.linalg.inv(sol.jac.T @ sol.jac) * max(chi2, 1.0)
@@ -116,5 +134,6 @@ def calibrate_with_moves(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.
     out.residual_rms = float(np.sqrt(np.mean(np.sum(misfit**2, axis=1))))
     out.extra.update({k: val for k, val in hold_fit.extra.items() if k not in out.extra})
     out.extra.update({"reference_world": v.tolist(), "reduced_chi2": chi2, "move_samples": int(len(moves)),
-                      "time_offset_s": float(delta), "hold_only": {"B": hold_fit.B.tolist(), "H": hold_fit.H.tolist()}})
+                      "time_offset_s": float(delta), "hold_only": {"B": hold_fit.B.tolist(), "H": hold_fit.H.tolist()},
+                      "_move_residuals": sol.fun.reshape(-1, 3)[len(y_means):] * moves.sigma})
     return out

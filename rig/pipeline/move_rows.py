@@ -88,7 +88,7 @@ def refine_vector_with_moves(session: SessionData, holds: dict[str, HoldStats], 
             continue
         extra = np.zeros((int(use.sum()), 3))
         arm = cal.extra.get("lever_arm_m") if name == "accel" else None
-        if arm is not None:
+        if arm is not None and cal.extra.get("lever_arm_significant"):     # as the attitude comparison applies it
             extra = np.einsum("kab,b->ka", lever_arm_matrix(w[use], dw[use]), np.asarray(arm, dtype=float))
         sigma = np.maximum(np.sqrt(np.mean(np.square(h.std), axis=0)), QUANTISATION_STD)
         samples = MoveSamples(y[use], R[use], omega_ref[use], extra, sigma)

@@ -90,7 +90,7 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
                        method: str = "joint", settle_s: float = 0.5, gravity: float | None = None,
                        gyro_samples: str = "auto",
                        unit_serial: str | None = None, board: str | None = None,
-                       echo: Callable[[str], None] = print) -> SessionCalibration:
+                       echo: Callable[[str], None] = print, move_samples: bool = True) -> SessionCalibration:
     """Read a session folder, calibrate it, write `OUT/calibration.json`, echo a short summary.
 
     fmt "interchange": `session_dir` is an `imu-session-csv/1` folder; `gravity` overrides its meta.
@@ -106,10 +106,11 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
         session = read_session(session_dir)
         if gravity is not None:
             session.gravity = float(gravity)
-        result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples)
+        result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples,
+                                   move_samples=move_samples)
         g, field_uT = session.gravity, session.field_uT
         source = {"format": "imu-session-csv/1", "path": str(session_dir), "method": method, "settle_s": settle_s,
-                  "gyro_samples": gyro_samples}
+                  "gyro_samples": gyro_samples, "move_samples": move_samples}
     elif fmt == "imu_tk":
         g = STANDARD_GRAVITY if gravity is None else float(gravity)
         result, source = _calibrate_imu_tk(session_dir, accel_file, gyro_file, g)
