@@ -88,11 +88,7 @@ def predict(config: RigConfig, schedule: list[Orientation], hold_s: float, noise
     R = schedule_rotations(schedule, config.geometry)
     n = len(schedule)
     samples = np.full(n, max(int(hold_s * s.rate_hz), 1))
-    still_s = t.settle_s + 2 * t.poll_every / s.rate_hz
-    moving = None
-    if move_samples:
-        moving = move_rotations(np.array([o.outer_deg for o in schedule]), np.array([o.inner_deg for o in schedule]),
-                                config.geometry, t.speed_dps, t.accel_dps2, s.rate_hz, still_s)
+    moving = move_path(config, schedule) if move_samples else None
     out = {}
     for name in SENSORS:
         sigma = noise.sigma[name]
@@ -105,6 +101,15 @@ def predict(config: RigConfig, schedule: list[Orientation], hold_s: float, noise
                                 None if moving is None else moving[::every])
         out[name] = {"H_rel_pct": 100 * H, "B_sd": B, "unit": UNITS[name]}
     return out
+
+
+def move_path(config: RigConfig, schedule: list[Orientation]) -> np.ndarray:
+    """Orientations (m, 3, 3) of the fixture at every sample tick of the schedule's moves: the motion at the
+    table's limits, then the settle time and the two status polls (see `eta`) before the next hold begins."""
+    t, s = config.turntable, config.schedule
+    return move_rotations(np.array([o.outer_deg for o in schedule]), np.array([o.inner_deg for o in schedule]),
+                          config.geometry, t.speed_dps, t.accel_dps2, s.rate_hz,
+                          t.settle_s + 2 * t.poll_every / s.rate_hz)
 
 
 def eta(config: RigConfig, schedule: list[Orientation], hold_s: float) -> float:
