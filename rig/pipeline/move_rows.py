@@ -14,7 +14,7 @@ import numpy as np
 from rig.calibration.joint import _hold_sigma
 from rig.calibration.lever_arm import lever_arm_matrix, rate_and_derivative
 from rig.calibration.move_samples import MoveSamples, calibrate_with_moves
-from rig.calibration.quantisation import QUANTISATION_STD
+from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.pipeline.screening import resume_times
@@ -27,6 +27,11 @@ RATE_SIGMAS = 6.0
 RATE_FLOOR_RAD_S = 0.02
 RATE_SMOOTH = 3
 MIN_ROWS = 50
+STILL_RAD_S = 0.01          # a reference turning slower than this stands still (as MoveStream.trimmed_to_motion)
+# Where the rounding bias of a still reading is this share of a sample's noise or more, the still rows of a move
+# (the settling before the next hold) carry the hold's own bias and are left out: averaging them as independent
+# samples would claim an accuracy the rounding does not allow.
+ROUNDING_SHARE = 0.1
 
 
 def move_spans(session: SessionData, excluded: dict[int, str], settle_s: float) -> list[np.ndarray]:
@@ -86,11 +91,15 @@ def refine_vector_with_moves(session: SessionData, holds: dict[str, HoldStats], 
         use = ok & agree & np.isfinite(y).all(axis=1)
         if use.sum() < MIN_ROWS:
             continue
+        sigma = np.maximum(np.sqrt(np.mean(np.square(h.std), axis=0)), QUANTISATION_STD)
+        if np.any(rounding_bias_rms(noise_sigma(h.std)) > ROUNDING_SHARE * sigma):
+            use &= np.linalg.norm(omega_ref, axis=1) >= STILL_RAD_S
+            if use.sum() < MIN_ROWS:
+                continue
         extra = np.zeros((int(use.sum()), 3))
         arm = cal.extra.get("lever_arm_m") if name == "accel" else None
         if arm is not None and cal.extra.get("lever_arm_significant"):     # as the attitude comparison applies it
             extra = np.einsum("kab,b->ka", lever_arm_matrix(w[use], dw[use]), np.asarray(arm, dtype=float))
-        sigma = np.maximum(np.sqrt(np.mean(np.square(h.std), axis=0)), QUANTISATION_STD)
         samples = MoveSamples(y[use], R[use], omega_ref[use], extra, sigma)
         norm = float(session.gravity if name == "accel" else session.field_uT)
         try:
