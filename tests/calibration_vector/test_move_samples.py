@@ -144,3 +144,23 @@ def test_rows_whose_reference_is_stale_are_left_out_and_do_not_spoil_the_fit(sta
         err = {k: h_error(r.sensors[name].H, np.array(truth[name]["H"])) for k, r in (("moves", with_moves),
                                                                                       ("holds", holds_only))}
         assert err["moves"] < 1.3 * err["holds"] + 2e-6, (name, err)
+
+
+def test_rig_calibrate_from_holds_only_keeps_the_hold_fit(tmp_path):
+    """`rig calibrate --from DIR --holds-only`: the accelerometer and magnetometer from the hold means alone (what
+    the file says), the default with the move samples too."""
+    import json
+    import subprocess
+
+    vs.write_session(vs.generate(vs.config_for("orient12"), 1), tmp_path / "s")
+    docs = {}
+    for label, flags in (("holds", ["--holds-only"]), ("moves", [])):
+        res = subprocess.run([sys.executable, "-m", "rig.cli", "calibrate", "--from", str(tmp_path / "s"), "--out",
+                              str(tmp_path / label), *flags], capture_output=True, text=True, timeout=300)
+        assert res.returncode == 0, res.stderr
+        docs[label] = json.loads((tmp_path / label / "calibration.json").read_text())
+    assert docs["holds"]["source"]["move_samples"] is False and docs["moves"]["source"]["move_samples"] is True
+    for name in ("accel", "mag"):
+        assert "move_samples" not in docs["holds"]["sensors"][name]
+        assert docs["moves"]["sensors"][name]["move_samples"] > 1000
+        assert docs["moves"]["sensors"][name]["hold_only"]["H"] == docs["holds"]["sensors"][name]["H"]
