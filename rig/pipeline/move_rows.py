@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.joint import _hold_sigma
+from rig.calibration.joint import hold_sigma
 from rig.calibration.lever_arm import lever_arm_matrix, rate_and_derivative
 from rig.calibration.move_samples import MoveSamples, calibrate_with_moves
 from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
@@ -71,16 +71,22 @@ def refine_vector_with_moves(session: SessionData, holds: dict[str, HoldStats], 
     if not spans:
         return
     rows = np.concatenate(spans)
-    R = matrix_from_quat(session.q_ref[rows])
-    ok = np.isfinite(R).all(axis=(1, 2))
-    omega_ref = np.zeros((len(rows), 3))
-    for s in np.split(np.arange(len(rows)), np.cumsum([len(sp) for sp in spans])[:-1]):
-        omega_ref[s] = reference_rate(session.t[rows[s]], R[s])
     gyro_cal = sensors["gyro"]
-    w_all, dw_all = rate_and_derivative(session.t, gyro_cal.apply(session.raw["gyro"]))
+    try:
+        with np.errstate(invalid="ignore"):
+            R = matrix_from_quat(session.q_ref[rows])
+            ok = np.isfinite(R).all(axis=(1, 2))
+            omega_ref = np.zeros((len(rows), 3))
+            for s in np.split(np.arange(len(rows)), np.cumsum([len(sp) for sp in spans])[:-1]):
+                omega_ref[s] = reference_rate(session.t[rows[s]], R[s])
+        w_all, dw_all = rate_and_derivative(session.t, gyro_cal.apply(session.raw["gyro"]))
+    except (ValueError, np.linalg.LinAlgError) as e:
+        warnings.append(f"accel, mag: the move samples were not used ({e}); B and H from the holds alone")
+        return
     w, dw = w_all[rows], dw_all[rows]
     gyro_sd = float(np.sqrt(np.mean(np.square(holds["gyro"].std @ gyro_cal.H.T)))) if len(holds["gyro"].step) else 0.0
-    mismatch = np.linalg.norm(_smooth(w - omega_ref, spans), axis=1)
+    with np.errstate(invalid="ignore"):
+        mismatch = np.linalg.norm(_smooth(w - omega_ref, spans), axis=1)
     agree = mismatch <= max(RATE_SIGMAS * gyro_sd / np.sqrt(RATE_SMOOTH), RATE_FLOOR_RAD_S)
     for name in ("accel", "mag"):
         cal = sensors.get(name)
@@ -103,7 +109,7 @@ def refine_vector_with_moves(session: SessionData, holds: dict[str, HoldStats], 
         samples = MoveSamples(y[use], R[use], omega_ref[use], extra, sigma)
         norm = float(session.gravity if name == "accel" else session.field_uT)
         try:
-            fit = calibrate_with_moves(cal, h.mean, h.R, _hold_sigma(h.std, h.count, len(h.step)), norm, samples)
+            fit = calibrate_with_moves(cal, h.mean, h.R, hold_sigma(h.std, h.count, len(h.step)), norm, samples)
         except (CalibrationError, np.linalg.LinAlgError) as e:
             warnings.append(f"{name}: the move samples were not used ({e}); B and H from the holds alone")
             continue
