@@ -23,7 +23,7 @@ import numpy as np
 from rig.calibration.observability import check_schedule, move_axes_problem
 from rig.config import RigConfig
 from rig.errors import CalibrationError, InputError
-from rig.planner_bounds import gyro_bound, move_rotations, vector_bound
+from rig.planner_bounds import MOVE_DECIMATION, gyro_bound, move_rotations, vector_bound
 from rig.schedule import Orientation, estimate_duration, plan_orientations, schedule_rotations
 from rig.trapezoid import trapezoid
 
@@ -98,7 +98,7 @@ def predict(config: RigConfig, schedule: list[Orientation], hold_s: float, noise
             ref = np.array([0.0, 0.0, config.gravity_mps2]) if name == "accel" else field_world(config.field_uT)
             every = 1 if name == "accel" else max(s.mag_every, 1)
             H, B = vector_bound(R, ref, sigma, np.maximum(samples // every, 1),
-                                None if moving is None else moving[::every])
+                                None if moving is None else moving[::every * MOVE_DECIMATION], MOVE_DECIMATION)
         out[name] = {"H_rel_pct": 100 * H, "B_sd": B, "unit": UNITS[name]}
     return out
 
