@@ -18,7 +18,7 @@ from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.pipeline.screening import resume_times
-from rig.quaternions import matrix_from_quat, rotvec_from_matrix
+from rig.quaternions import matrix_from_quat, matrix_from_rotvec, rotvec_from_matrix
 from rig.session_data import HoldStats, SessionData
 
 # A row whose reference rate differs from the gyro's (averaged over RATE_SMOOTH rows) by more than this many
@@ -27,6 +27,7 @@ RATE_SIGMAS = 6.0
 RATE_FLOOR_RAD_S = 0.02
 RATE_SMOOTH = 3
 MIN_ROWS = 50
+GAP_PERIODS = 1.5
 STILL_RAD_S = 0.01          # a reference turning slower than this stands still (as MoveStream.trimmed_to_motion)
 # Where the rounding bias of a still reading is this share of a sample's noise or more, the still rows of a move
 # (the settling before the next hold) carry the hold's own bias and are left out: averaging them as independent
@@ -51,6 +52,16 @@ def move_spans(session: SessionData, excluded: dict[int, str], settle_s: float) 
     return [r for r in out if r.size]
 
 
+def stretch_labels(t: np.ndarray) -> np.ndarray:
+    """Label of each row's stretch of uninterrupted sampling: a new stretch after every gap of more than
+    GAP_PERIODS sample periods (a stalled read, a redone step, a resumed run). A chip on its own sample clock keeps
+    its phase to the rig's tick grid within a stretch, so each stretch gets one sample-time offset."""
+    dt = np.diff(t)
+    if not len(dt):
+        return np.zeros(len(t), dtype=int)
+    return np.concatenate([[0], np.cumsum(dt > GAP_PERIODS * np.median(dt))])
+
+
 def reference_rate(t: np.ndarray, R: np.ndarray) -> np.ndarray:
     """Body rate (rad/s, fixture frame) of the reference rows R (m, 3, 3) at times t: central differences."""
     if len(t) < 3:
@@ -59,6 +70,21 @@ def reference_rate(t: np.ndarray, R: np.ndarray) -> np.ndarray:
     i1 = np.r_[1, np.arange(2, len(t)), len(t) - 1]
     step = rotvec_from_matrix(np.einsum("kji,kjl->kil", R[i0], R[i1]))
     return step / (t[i1] - t[i0])[:, None]
+
+
+def gyro_discrepancy(t: np.ndarray, R: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Angle (rad) between each row's reference R (m, 3, 3) and the orientation the calibrated gyro `w` (m, 3)
+    integrates to from the nearer end of the move (both ends lie where the table stands still, so the
+    reference is sound there; the gyro's own drift grows with the distance from its anchor)."""
+    steps = matrix_from_rotvec(0.5 * (w[1:] + w[:-1]) * np.diff(t)[:, None])
+    fwd, bwd = np.empty_like(R), np.empty_like(R)
+    fwd[0], bwd[-1] = R[0], R[-1]
+    for k in range(len(steps)):
+        fwd[k + 1] = fwd[k] @ steps[k]
+        bwd[-k - 2] = bwd[-k - 1] @ steps[-k - 1].T
+    near_start = (t - t[0]) <= (t[-1] - t)
+    integrated = np.where(near_start[:, None, None], fwd, bwd)
+    return np.linalg.norm(rotvec_from_matrix(np.einsum("kji,kjl->kil", integrated, R)), axis=1)
 
 
 def refine_vector_with_moves(session: SessionData, holds: dict[str, HoldStats], sensors: dict[str, TriadCalibration],
@@ -84,6 +110,7 @@ def refine_vector_with_moves(session: SessionData, holds: dict[str, HoldStats], 
         warnings.append(f"accel, mag: the move samples were not used ({e}); B and H from the holds alone")
         return
     w, dw = w_all[rows], dw_all[rows]
+    move = stretch_labels(session.t)[rows]
     gyro_sd = float(np.sqrt(np.mean(np.square(holds["gyro"].std @ gyro_cal.H.T)))) if len(holds["gyro"].step) else 0.0
     with np.errstate(invalid="ignore"):
         mismatch = np.linalg.norm(_smooth(w - omega_ref, spans), axis=1)
@@ -106,7 +133,7 @@ def refine_vector_with_moves(session: SessionData, holds: dict[str, HoldStats], 
         arm = cal.extra.get("lever_arm_m") if name == "accel" else None
         if arm is not None and cal.extra.get("lever_arm_significant"):     # as the attitude comparison applies it
             extra = np.einsum("kab,b->ka", lever_arm_matrix(w[use], dw[use]), np.asarray(arm, dtype=float))
-        samples = MoveSamples(y[use], R[use], omega_ref[use], extra, sigma)
+        samples = MoveSamples(y[use], R[use], omega_ref[use], extra, sigma, move[use])
         norm = float(session.gravity if name == "accel" else session.field_uT)
         try:
             fit = calibrate_with_moves(cal, h.mean, h.R, hold_sigma(h.std, h.count, len(h.step)), norm, samples)

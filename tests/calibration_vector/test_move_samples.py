@@ -39,7 +39,7 @@ def moves_of(schedule, t_move: float = 1.2):
     return t, angles, len(schedule) - 1
 
 
-def synthetic(rng, extra_amplitude: float = 0.0):
+def synthetic(rng, extra_amplitude: float = 0.0, offsets=None):
     schedule = plan_orientations(10)
     R = GEOMETRY.rotation([o.outer_deg for o in schedule], [o.inner_deg for o in schedule])
     H = np.eye(3) + rng.uniform(-0.03, 0.03, (3, 3))
@@ -51,14 +51,14 @@ def synthetic(rng, extra_amplitude: float = 0.0):
     ys, Rs, ws, cs = [], [], [], []
     for k in range(n_moves):
         stamped = GEOMETRY.rotation(*angles(k, t))
-        sampled = GEOMETRY.rotation(*angles(k, t - OFFSET_S))
+        sampled = GEOMETRY.rotation(*angles(k, t - (OFFSET_S if offsets is None else offsets(k))))
         c = extra_amplitude * np.column_stack([np.sin(3 * t + k), np.cos(2 * t), np.sin(5 * t + 1)])
         ys.append((np.einsum("kji,j->ki", sampled, v) + c) @ K.T + B + rng.normal(0, SIGMA, (len(t), 3)))
         Rs.append(stamped)
         ws.append(reference_rate(t, stamped))
         cs.append(c)
     moves = MoveSamples(np.concatenate(ys), np.concatenate(Rs), np.concatenate(ws), np.concatenate(cs),
-                        np.full(3, SIGMA))
+                        np.full(3, SIGMA), np.repeat(np.arange(n_moves) >= n_moves // 2, len(t)))
     return (y_means.mean(axis=1), y_means.std(axis=1, ddof=1), R, v, H, B, moves)
 
 
@@ -109,6 +109,20 @@ def test_move_samples_misfit_by_a_noisy_reference_are_weighted_by_their_own_scat
         errs.append(h_error(fit.H, H))
         holds.append(h_error(hold_fit.H, H))
     assert np.sqrt(np.mean(np.square(errs))) < 1.1 * np.sqrt(np.mean(np.square(holds)))
+
+
+def test_each_stretch_of_uninterrupted_sampling_has_its_own_time_offset():
+    """The chip's phase to the tick grid changed half-way (a resumed run): 8 ms before, 2 ms after, both found."""
+    from rig.pipeline.move_rows import stretch_labels
+
+    assert stretch_labels(np.array([0.0, 0.01, 0.02, 1.02, 1.03, 1.08, 1.09])).tolist() == [0, 0, 0, 1, 1, 2, 2]
+    rng = np.random.default_rng(2)
+    y_means, y_std, R, v, H, B, moves = synthetic(rng, offsets=lambda k: 0.008 if k < 4 else 0.002)
+    hold_fit = calibrate_joint(y_means, R, NORM, y_std=y_std, counts=np.full(len(R), HOLD_SAMPLES))
+    fit = calibrate_with_moves(hold_fit, y_means, R, np.full((len(R), 3), SIGMA / np.sqrt(HOLD_SAMPLES)), NORM, moves)
+    low, high = fit.extra["time_offset_range_s"]
+    assert abs(low - 0.002) < 2e-4 and abs(high - 0.008) < 2e-4, (low, high)
+    assert h_error(fit.H, H) < 3 * cramer_rao(R, H, B, v, SIGMA / np.sqrt(HOLD_SAMPLES)).H_rel_rms
 
 
 @pytest.fixture(scope="module")
