@@ -18,7 +18,7 @@ from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.pipeline.screening import resume_times
-from rig.quaternions import matrix_from_quat, matrix_from_rotvec, rotvec_from_matrix
+from rig.quaternions import matrix_from_quat, rotvec_from_matrix
 from rig.session_data import HoldStats, SessionData
 
 # A row whose reference rate differs from the gyro's (averaged over RATE_SMOOTH rows) by more than this many
@@ -70,21 +70,6 @@ def reference_rate(t: np.ndarray, R: np.ndarray) -> np.ndarray:
     i1 = np.r_[1, np.arange(2, len(t)), len(t) - 1]
     step = rotvec_from_matrix(np.einsum("kji,kjl->kil", R[i0], R[i1]))
     return step / (t[i1] - t[i0])[:, None]
-
-
-def gyro_discrepancy(t: np.ndarray, R: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Angle (rad) between each row's reference R (m, 3, 3) and the orientation the calibrated gyro `w` (m, 3)
-    integrates to from the nearer end of the move (both ends lie where the table stands still, so the
-    reference is sound there; the gyro's own drift grows with the distance from its anchor)."""
-    steps = matrix_from_rotvec(0.5 * (w[1:] + w[:-1]) * np.diff(t)[:, None])
-    fwd, bwd = np.empty_like(R), np.empty_like(R)
-    fwd[0], bwd[-1] = R[0], R[-1]
-    for k in range(len(steps)):
-        fwd[k + 1] = fwd[k] @ steps[k]
-        bwd[-k - 2] = bwd[-k - 1] @ steps[-k - 1].T
-    near_start = (t - t[0]) <= (t[-1] - t)
-    integrated = np.where(near_start[:, None, None], fwd, bwd)
-    return np.linalg.norm(rotvec_from_matrix(np.einsum("kji,kjl->kil", integrated, R)), axis=1)
 
 
 def refine_vector_with_moves(session: SessionData, holds: dict[str, HoldStats], sensors: dict[str, TriadCalibration],
