@@ -7,7 +7,12 @@ accelerometer, gyroscope and magnetometer, median over seeds, beside the predict
 session used (`table_time_s`); planning time. Then the 50 % target: the planner at half the default session's
 table time against the default session's H errors.
 
+Every session is calibrated as the rig does (the accelerometer and magnetometer with their move samples, issue
+15 item 2) and, from the same stored session, with the hold means alone (`*_holds_only`: today's default before
+item 2, what the 50 % target is measured against).
+
     python benchmarks/bench_planner.py [--seeds 10] [--times 30,60,90,120,180,240]
+    python benchmarks/bench_planner.py --seeds 10 --times ''      # the default session and the 50 % point only
 """
 
 from __future__ import annotations
@@ -26,7 +31,9 @@ from procedures.orchestrator import RigSpec, SessionOrchestrator
 from rig import planner
 from rig.commands.calibrate import build_rig
 from rig.config import load_config
+from rig.pipeline import calibrate_session
 from rig.schedule import plan_orientations
+from rig.store import SessionStore
 
 SENSORS = planner.SENSORS
 
@@ -39,11 +46,15 @@ def run_session(config, seed: int) -> dict:
             return {"status": outcome.status, "reason": outcome.reason}
         cal = json.loads((out / "calibration.json").read_text())
         truth = json.loads((out / "truth.json").read_text())
-    err = {}
+        with SessionStore.open(out) as store:
+            holds_only = calibrate_session(store.to_session_data(), settle_s=0.0, move_samples=False)
+    err, err_holds = {}, {}
     for s in SENSORS:
         H, Ht = np.array(cal["sensors"][s]["H"]), np.array(truth["sensors"][s]["H"])
         err[s] = float(np.linalg.norm(H - Ht) / np.linalg.norm(Ht) * 100)
-    return {"status": outcome.status, "table_time_s": cal["table_time_s"], "H_err_pct": err}
+        err_holds[s] = float(np.linalg.norm(holds_only.sensors[s].H - Ht) / np.linalg.norm(Ht) * 100)
+    return {"status": outcome.status, "table_time_s": cal["table_time_s"], "H_err_pct": err,
+            "H_err_pct_holds_only": err_holds}
 
 
 def campaign(config, seeds: list[int]) -> dict:
@@ -52,6 +63,8 @@ def campaign(config, seeds: list[int]) -> dict:
     return {"sessions": len(runs), "failed": [r for r in runs if "H_err_pct" not in r],
             "table_time_s": float(np.median([r["table_time_s"] for r in ok])) if ok else None,
             "H_err_pct_median": {s: float(np.median([r["H_err_pct"][s] for r in ok])) for s in SENSORS} if ok else None,
+            "H_err_pct_median_holds_only": {s: float(np.median([r["H_err_pct_holds_only"][s] for r in ok]))
+                                            for s in SENSORS} if ok else None,
             "H_err_pct_rms": {s: float(np.sqrt(np.mean([r["H_err_pct"][s] ** 2 for r in ok]))) for s in SENSORS}
             if ok else None}
 
@@ -73,6 +86,8 @@ def summary(plan, result: dict) -> dict:
     return {"orientations": plan.orientations, "hold_s": plan.hold_s, "eta_s": round(plan.eta_s, 1),
             "table_time_s": result["table_time_s"], "H_err_pct_median": {s: round(v, 5) for s, v in med.items()},
             "H_err_pct_rms": {s: round(v, 5) for s, v in (result["H_err_pct_rms"] or {}).items()},
+            "H_err_pct_median_holds_only": {s: round(v, 5) for s, v in
+                                            (result["H_err_pct_median_holds_only"] or {}).items()},
             "H_pred_pct": pred,
             "achieved_rms_over_predicted": {s: round(result["H_err_pct_rms"][s] / pred[s], 3) for s in med},
             "failed": result["failed"]}
@@ -87,7 +102,7 @@ def main() -> None:
     config = load_config(None)
     noise = planner.NoiseModel()
     curve, planning = [], []
-    for budget in (float(x) for x in args.times.split(",")):
+    for budget in (float(x) for x in args.times.split(",") if x.strip()):
         t0 = time.perf_counter()
         plan = planner.plan_for_budget(config, budget, noise)
         planning.append(time.perf_counter() - t0)
@@ -100,11 +115,17 @@ def main() -> None:
     default_plan = planner.default_plan(config, noise)
     default = summary(default_plan, campaign(config, seeds))
     half = 0.5 * default["table_time_s"]
+    t0 = time.perf_counter()
     half_plan = planner.plan_for_budget(config, half, noise)
+    half_planning = time.perf_counter() - t0
+    planning.append(half_planning)
     at_half = summary(half_plan, campaign(planner.applied(config, half_plan), seeds))
-    reaches = {s: at_half["H_err_pct_median"][s] <= default["H_err_pct_median"][s] for s in SENSORS}
+    today = default["H_err_pct_median_holds_only"]
+    reaches = {s: at_half["H_err_pct_median"][s] <= today[s] for s in SENSORS}
     ratios = [r[k]["achieved_rms_over_predicted"][s] for r in curve for k in ("planner", "default")
               if r[k] is not None for s in SENSORS]
+    ratios += [x[s] for x in (default["achieved_rms_over_predicted"], at_half["achieved_rms_over_predicted"])
+               for s in SENSORS]
     print(json.dumps({
         "benchmark": "planner vs today's default plan, simulated rig (issue 15)", "seeds": len(seeds),
         "noise_model": noise.sigma,
@@ -113,6 +134,9 @@ def main() -> None:
         "default_session": default,
         "planner_at_half_default_table_time": at_half,
         "half_of_default_table_time_s": round(half, 2),
+        "half_over_todays_default_H_error": {s: round(at_half["H_err_pct_median"][s] / today[s], 3) for s in SENSORS},
+        "half_over_default_with_move_samples_H_error": {
+            s: round(at_half["H_err_pct_median"][s] / default["H_err_pct_median"][s], 3) for s in SENSORS},
         "reaches_default_H_error_in_50pct_time": {**reaches, "all": all(reaches.values())},
         "achieved_rms_over_predicted_range": [min(ratios), max(ratios)],
         "predicted_within_20pct": all(0.8 <= r <= 1.2 for r in ratios),

@@ -23,7 +23,7 @@ import numpy as np
 from rig.calibration.observability import check_schedule, move_axes_problem
 from rig.config import RigConfig
 from rig.errors import CalibrationError, InputError
-from rig.planner_bounds import gyro_bound, vector_bound
+from rig.planner_bounds import MOVE_DECIMATION, gyro_bound, move_rotations, vector_bound
 from rig.schedule import Orientation, estimate_duration, plan_orientations, schedule_rotations
 from rig.trapezoid import trapezoid
 
@@ -79,12 +79,16 @@ def observable(config: RigConfig, schedule: list[Orientation]) -> bool:
     return check_schedule(R).ok and move_axes_problem(np.einsum("kji,kjl->kil", R[:-1], R[1:])) is None
 
 
-def predict(config: RigConfig, schedule: list[Orientation], hold_s: float, noise: NoiseModel) -> dict:
-    """Predicted standard deviations of every sensor's H (relative RMS, %) and B (RMS, units) for the plan."""
+def predict(config: RigConfig, schedule: list[Orientation], hold_s: float, noise: NoiseModel,
+            move_samples: bool = True) -> dict:
+    """Predicted standard deviations of every sensor's H (relative RMS, %) and B (RMS, units) for the plan;
+    with `move_samples` the accelerometer and magnetometer use their samples of the moves too, as the
+    pipeline does by default."""
     t, s = config.turntable, config.schedule
     R = schedule_rotations(schedule, config.geometry)
     n = len(schedule)
     samples = np.full(n, max(int(hold_s * s.rate_hz), 1))
+    moving = move_path(config, schedule) if move_samples else None
     out = {}
     for name in SENSORS:
         sigma = noise.sigma[name]
@@ -93,9 +97,19 @@ def predict(config: RigConfig, schedule: list[Orientation], hold_s: float, noise
         else:
             ref = np.array([0.0, 0.0, config.gravity_mps2]) if name == "accel" else field_world(config.field_uT)
             every = 1 if name == "accel" else max(s.mag_every, 1)
-            H, B = vector_bound(R, ref, sigma, np.maximum(samples // every, 1))
+            H, B = vector_bound(R, ref, sigma, np.maximum(samples // every, 1),
+                                None if moving is None else moving[::every * MOVE_DECIMATION], MOVE_DECIMATION)
         out[name] = {"H_rel_pct": 100 * H, "B_sd": B, "unit": UNITS[name]}
     return out
+
+
+def move_path(config: RigConfig, schedule: list[Orientation]) -> np.ndarray:
+    """Orientations (m, 3, 3) of the fixture at every sample tick of the schedule's moves: the motion at the
+    table's limits, then the settle time and the two status polls (see `eta`) before the next hold begins."""
+    t, s = config.turntable, config.schedule
+    return move_rotations(np.array([o.outer_deg for o in schedule]), np.array([o.inner_deg for o in schedule]),
+                          config.geometry, t.speed_dps, t.accel_dps2, s.rate_hz,
+                          t.settle_s + 2 * t.poll_every / s.rate_hz)
 
 
 def eta(config: RigConfig, schedule: list[Orientation], hold_s: float) -> float:

@@ -56,8 +56,8 @@ def cramer_rao(R: np.ndarray, H: np.ndarray, B: np.ndarray, reference_world: np.
     R, H, B, v, s = _checked(R, H, B, reference_world, sigma)
     K = np.linalg.inv(H)
     J, E = _jacobian(R, K, v)
-    Jw = J / s[:, :, None]
-    F = np.einsum("kci,kcj->ij", Jw, Jw)
+    Jw = (J / s[:, :, None]).reshape(-1, N_PARAMS)
+    F = Jw.T @ Jw
     cov = _inverse_information(F, len(R))
     A = -np.kron(H, H.T)                      # row-major vec(dH) = -vec(H dK H)
     H_cov = A @ cov[3:12, 3:12] @ A.T
@@ -71,14 +71,17 @@ def cramer_rao(R: np.ndarray, H: np.ndarray, B: np.ndarray, reference_world: np.
 
 
 def _jacobian(R: np.ndarray, K: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """dy_k / d(B, vec K, tilts): (n, 3, 14). A tilt alpha moves v to norm (v^ + E alpha) / |v^ + E alpha|."""
+    """dy_k / d(B, vec K, tilts): (n, 3, 14). A tilt alpha moves v to norm (v^ + E alpha) / |v^ + E alpha|.
+    Written with matmul rather than einsum: the planner evaluates it on every sample of the planned moves."""
     n = len(R)
-    x = np.einsum("kji,j->ki", R, v)                                  # R_k^T v
+    Rt = np.swapaxes(R, 1, 2)
+    x = Rt @ v                                                        # R_k^T v
     E = tangent_basis(v)
-    J = np.empty((n, 3, N_PARAMS))
+    J = np.zeros((n, 3, N_PARAMS))
     J[:, :, 0:3] = np.eye(3)
-    J[:, :, 3:12] = np.einsum("ca,kb->kcab", np.eye(3), x).reshape(n, 3, 9)
-    J[:, :, 12:14] = np.linalg.norm(v) * np.einsum("ca,kba,bd->kcd", K, R, E)
+    for c in range(3):
+        J[:, c, 3 + 3 * c:6 + 3 * c] = x
+    J[:, :, 12:14] = np.linalg.norm(v) * (K @ (Rt @ E))
     return J, E
 
 

@@ -45,7 +45,7 @@ def calibrate_joint(y_means: np.ndarray, R: np.ndarray, norm: float, *, y_std: n
     residual variance. extra: reference_world (fitted v), reduced_chi2, v_std_deg.
     """
     y, R = validate_holds(y_means, R, min_orientations=MIN_ORIENTATIONS, full_scale=full_scale, what="joint")
-    sigma = _hold_sigma(y_std, counts, len(y))
+    sigma = hold_sigma(y_std, counts, len(y))
     starts = _start_references(y, R, norm, reference_world, full_scale)
     result = _solve(y, R, norm, sigma, starts, refine_ml, y_std is not None, max_alternations, tol)
     chi2 = result.extra.get("reduced_chi2", 0.0)
@@ -91,7 +91,7 @@ def _solve(y, R, norm, sigma, starts, refine_ml: bool, weighted: bool, max_alter
     return result
 
 
-def _hold_sigma(y_std, counts, n: int) -> np.ndarray:
+def hold_sigma(y_std, counts, n: int) -> np.ndarray:
     """Standard error of each hold mean. Raw counts are integers: no sample is better than the rounding noise,
     and without noise to dither them a mean keeps a rounding bias of up to half a count however many samples
     it has (quantisation.mean_standard_error). A quiet or simulated sensor that reports std 0 is such a case."""

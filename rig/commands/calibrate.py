@@ -205,6 +205,8 @@ def show_outcome(outcome, echo=click.echo) -> int:
 @click.option("--gyro-samples", type=click.Choice(["auto", "point", "mean"]), default="auto", show_default=True,
               help="With --from: a gyro sample is the rate at its time stamp (point) or its mean over the sample "
                    "period (mean); auto fits both and keeps the one that matches the known rotations better.")
+@click.option("--holds-only", is_flag=True,
+              help="With --from: accelerometer and magnetometer from the hold means alone, not the move samples too.")
 @click.option("--store", "store", default=None, metavar="URL|FOLDER",
               help="The lab's store ([store] url in the TOML): a postgresql:// URL the session is mirrored into as "
                    "it runs (recorded locally first; `rig push` finishes what the network kept back), or a folder "
@@ -219,7 +221,8 @@ def show_outcome(outcome, echo=click.echo) -> int:
 @click.option("--noise-from", type=click.Path(exists=True, file_okay=False), default=None,
               help="With --budget-s/--target-h-pct: the noise of a calibrated session of this unit.")
 def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scale, method, orientations,
-              gravity, settle_s, gyro_samples, store, no_progress, plots, budget_s, target_h_pct, noise_from):
+              gravity, settle_s, gyro_samples, holds_only, store, no_progress, plots, budget_s, target_h_pct,
+              noise_from):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if from_dir or fmt == "imu_tk":
         if budget_s is not None or target_h_pct is not None or noise_from is not None:
@@ -237,10 +240,11 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
                 if click.get_current_context().get_parameter_source("settle_s").name == "DEFAULT":
                     settle_s = 0.0                  # the rig records a hold once the table has settled
                 _calibrate_rig_folder(Path(from_dir), out, method=method, settle_s=settle_s, gravity=gravity,
-                                      gyro_samples=gyro_samples)
+                                      gyro_samples=gyro_samples, move_samples=not holds_only)
                 return
             calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
-                               settle_s=settle_s, gravity=gravity, gyro_samples=gyro_samples, echo=click.echo)
+                               settle_s=settle_s, gravity=gravity, gyro_samples=gyro_samples, echo=click.echo,
+                               move_samples=not holds_only)
         except (RigError, OSError) as e:
             raise command_error(e) from None
         except (ValueError, ArithmeticError) as e:     # numbers the data cannot support (numpy's LinAlgError too)
@@ -296,7 +300,7 @@ def mirrored(out: Path, store: str | None):
 
 
 def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: float, gravity: float | None,
-                          gyro_samples: str) -> None:
+                          gyro_samples: str, move_samples: bool = True) -> None:
     """`calibrate --from` on the rig's own session folder (no export needed): the same pipeline and writer."""
     from rig.commands.sessions import read_any_session
     from rig.pipeline import calibrate_session
@@ -305,13 +309,14 @@ def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: flo
     session = read_any_session(folder)
     if gravity is not None:
         session.gravity = float(gravity)
-    result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples)
+    result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples,
+                               move_samples=move_samples)
     unit = session.meta.get("unit") or {}
     path = write_session_calibration(out, result, gravity=session.gravity, field_uT=session.field_uT,
                                      unit_serial=unit.get("serial"), board=unit.get("board"),
                                      extra={"source": {"format": "rig-session-sqlite/1", "path": str(folder),
                                                        "method": method, "settle_s": settle_s,
-                                                       "gyro_samples": gyro_samples}},
+                                                       "gyro_samples": gyro_samples, "move_samples": move_samples}},
                                      session=session)
     for line in result.summary:
         click.echo(line)

@@ -38,6 +38,8 @@ def summary_lines(result: SessionCalibration) -> list[str]:
             head += f", samples read as {cal.extra['sample_model']}"
             if len(cal.extra.get("misfit_rad_by_sample_model", ())) == 1:
                 head += " (the moves fit within their noise)"
+        if "move_samples" in cal.extra:
+            head += f", with {cal.extra['move_samples']} samples of the moves"
         if not cal.converged:
             head += " (NOT converged)"
         lines.append(head)

@@ -21,6 +21,7 @@ from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.io.imu_tk import read_imu_tk
 from rig.io.session_csv import read_session
+from rig.pipeline.move_rows import refine_vector_with_moves
 from rig.pipeline.result import SessionCalibration, summary_lines
 from rig.pipeline.screening import (check_finite, find_bad_holds, warn_empty_holds, warn_partial_nan,
                                     without_steps)
@@ -33,10 +34,12 @@ from rig.units import STANDARD_GRAVITY
 
 
 def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: float = 0.5,
-                      gyro_samples: str = "auto") -> SessionCalibration:
+                      gyro_samples: str = "auto", move_samples: bool = True) -> SessionCalibration:
     """Calibrate every sensor of `session`; raises CalibrationError where the data cannot support it.
 
     gyro_samples: what a raw gyro sample means, "point" or "mean" (gyro.calibrate_gyro), or "auto".
+    move_samples: the joint accelerometer and magnetometer fits use the samples of the moves too
+    (rig.pipeline.move_rows); False keeps them to the hold means.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -62,6 +65,8 @@ def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: 
             sensors[name] = calibrate_vector(session, name, holds[name], method, warnings)
         check_result(name, sensors[name], reference_norm(session, name), warnings)
     add_lever_arm(session, sensors, warnings)
+    if move_samples and method == "joint":
+        refine_vector_with_moves(session, holds, sensors, excluded, warnings, settle_s)
     result = SessionCalibration(sensors, warnings, excluded_steps=excluded,
                                 holds_used={s: len(h.step) for s, h in holds.items()})
     result.summary = summary_lines(result)
@@ -85,7 +90,7 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
                        method: str = "joint", settle_s: float = 0.5, gravity: float | None = None,
                        gyro_samples: str = "auto",
                        unit_serial: str | None = None, board: str | None = None,
-                       echo: Callable[[str], None] = print) -> SessionCalibration:
+                       echo: Callable[[str], None] = print, move_samples: bool = True) -> SessionCalibration:
     """Read a session folder, calibrate it, write `OUT/calibration.json`, echo a short summary.
 
     fmt "interchange": `session_dir` is an `imu-session-csv/1` folder; `gravity` overrides its meta.
@@ -101,10 +106,11 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
         session = read_session(session_dir)
         if gravity is not None:
             session.gravity = float(gravity)
-        result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples)
+        result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples,
+                                   move_samples=move_samples)
         g, field_uT = session.gravity, session.field_uT
         source = {"format": "imu-session-csv/1", "path": str(session_dir), "method": method, "settle_s": settle_s,
-                  "gyro_samples": gyro_samples}
+                  "gyro_samples": gyro_samples, "move_samples": move_samples}
     elif fmt == "imu_tk":
         g = STANDARD_GRAVITY if gravity is None else float(gravity)
         result, source = _calibrate_imu_tk(session_dir, accel_file, gyro_file, g)

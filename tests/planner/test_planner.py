@@ -15,6 +15,7 @@ from rig import planner
 from rig.commands.calibrate import build_rig
 from rig.config import load_config
 from rig.errors import InputError
+from rig.planner_bounds import MOVE_ROWS_USED
 
 RIG = [sys.executable, "-m", "rig.cli"]
 
@@ -85,6 +86,21 @@ def test_the_simulated_rig_achieves_the_predicted_accuracy(config):
         rms = float(np.sqrt(np.mean([e[name] ** 2 for _, e in runs])))
         ratio = rms / plan.predicted[name]["H_rel_pct"]
         assert 0.65 <= ratio <= 1.45, (name, rms, plan.predicted[name])
+
+
+def test_the_planner_counts_the_move_samples_the_pipeline_uses(config, tmp_path):
+    """The bound's move samples (issue 15 item 2) are the rows the pipeline fits: one simulated 45 s session's
+    accelerometer and magnetometer move samples within 5 % of the planned moves' samples times MOVE_ROWS_USED."""
+    plan = planner.plan_for_budget(config, 45.0)
+    cfg = planner.applied(config, plan)
+    outcome = SessionOrchestrator(tmp_path / "s", build_rig, plots=False).start(cfg, RigSpec(True, 105))
+    assert outcome.status == "complete", outcome.reason
+    sensors = json.loads((tmp_path / "s" / "calibration.json").read_text())["sensors"]
+    path = planner.move_path(cfg, plan.schedule)
+    for name, every in (("accel", 1), ("mag", cfg.schedule.mag_every)):
+        predicted = MOVE_ROWS_USED * len(path[::every])
+        used = sensors[name]["move_samples"]
+        assert abs(used / predicted - 1) < 0.05, (name, used, predicted)
 
 
 def test_rig_plan_budget_prints_the_predicted_deviations_beside_the_eta(tmp_path):
