@@ -11,7 +11,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, SpiRegisters, check_not_floating, choose, spi_label
-from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Wiring
+from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Wiring, chip_driver
 from drivers.errors import FifoOverrun, SensorFault, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit, ROBits, RWBit, RWBits
 from drivers.units import STANDARD_GRAVITY
@@ -65,6 +65,7 @@ SPI_MAX_HZ = 5_000_000
 _XYZ = struct.Struct("<HHH")
 
 
+@chip_driver
 class ADXL312(Sensor, DataReady, KeepsConfiguration):
     """ADXL312 in full-resolution mode; `bus` is an smbus2.SMBus-like object or, if it has `xfer2`, a SpiDev.
 

@@ -10,7 +10,7 @@ import time
 from typing import Any, Callable, Sequence
 
 from drivers._analog import ADC_MID, check_plausible, validate_channels
-from drivers.contract import Placement, Sensor, SupplyMonitor, Wiring
+from drivers.contract import Placement, Sensor, SupplyMonitor, Wiring, chip_driver
 from drivers.units import STANDARD_GRAVITY
 
 RATIO_PER_G = 0.1          # sensitivity as a fraction of VS per g [U, ADXL335 sibling]
@@ -18,6 +18,7 @@ RANGE_G = 3.0              # minimum full scale [D]
 TURN_ON_S = 0.02           # about 160 * C_filt + 1 ms with 0.1 uF filter caps [U]
 
 
+@chip_driver
 class ADXL330(Sensor, SupplyMonitor):
     """ADXL330 on three ADC channels; optional supply monitor on `supply_channel` through a divider.
 

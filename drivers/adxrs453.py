@@ -13,7 +13,7 @@ from dataclasses import replace
 from typing import Any, Callable, Sequence
 
 from drivers._regs import spi_label
-from drivers.contract import Part, Placement, Sensor, Thermometer, Wiring
+from drivers.contract import Part, Placement, Sensor, Thermometer, Wiring, chip_driver
 from drivers.errors import DeviceAbsent, ProtocolError, SensorFault, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit
 
@@ -85,6 +85,7 @@ def _s16(value: int) -> int:
     return value - 0x10000 if value & 0x8000 else value
 
 
+@chip_driver
 class ADXRS453(Part, Thermometer):
     """One ADXRS453 on a spidev-like `spi` (xfer2). `cs` labels the chip select in messages."""
 
@@ -269,6 +270,7 @@ class ADXRS453(Part, Thermometer):
         }
 
 
+@chip_driver
 class GyroTriad(Sensor, Thermometer):
     """Three ADXRS453 mounted on orthogonal axes, read as one (x, y, z) triad."""
 

@@ -12,6 +12,10 @@ Optional abilities are declared by inheriting a capability class, so the sampler
 A part is built from its `Placement` (where it sits, declared as data in a board) and a `Wiring` (the open
 buses of this rig, real or fake) by its class method `attach`; a chip family registers its classes in
 `drivers.registry`.
+
+A part class joins the registry by its own declaration: `@chip_driver` on the class files it under its `chip`
+name in `REGISTERED`, and `drivers.registry` imports every module of this package, so a new chip's driver module
+is found without being listed anywhere.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from __future__ import annotations
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Mapping
+from typing import Any, Callable, ClassVar, Mapping, TypeVar
 
 
 @dataclass(frozen=True)
@@ -126,3 +130,26 @@ class SupplyMonitor(ABC):
     @abstractmethod
     def read_supply_v(self) -> float:
         """Sensor supply in volts."""
+
+
+REGISTERED: dict[str, type[Part]] = {}          # chip name -> part class; read through drivers.registry.CHIPS
+
+P = TypeVar("P", bound=type[Part])
+
+
+def chip_driver(cls: P) -> P:
+    """Class decorator: register a `Part` class under its `chip` name (the key boards and emulators use).
+
+    Two different classes claiming one chip name is a mistake named here; the same class seen again (its module
+    reloaded) replaces its entry."""
+    if not (isinstance(cls, type) and issubclass(cls, Part)):
+        raise TypeError(f"@chip_driver registers Part classes; {cls!r} is not one")
+    name = cls.__dict__.get("chip")
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"@chip_driver: {cls.__module__}.{cls.__qualname__} declares no `chip` name of its own")
+    known = REGISTERED.get(name)
+    if known is not None and (known.__module__, known.__qualname__) != (cls.__module__, cls.__qualname__):
+        raise ValueError(f"chip {name!r} registered twice: {known.__module__}.{known.__qualname__} and "
+                         f"{cls.__module__}.{cls.__qualname__}")
+    REGISTERED[name] = cls
+    return cls

@@ -11,7 +11,7 @@ import time
 from typing import Any, Callable, Sequence
 
 from drivers._analog import ADC_MID, check_plausible, validate_channels
-from drivers.contract import Placement, Sensor, Wiring
+from drivers.contract import Placement, Sensor, Wiring, chip_driver
 
 SET, RESET = +1, -1
 SENSITIVITY_V_PER_V_PER_GA = 1.0e-3   # 1.0 mV/V/gauss typ [D]
@@ -20,6 +20,7 @@ UT_PER_GAUSS = 100.0
 SETTLE_S = 1.0e-4                     # bridge + amplifier settling after a strap pulse [U]
 
 
+@chip_driver
 class HMC1053(Sensor):
     """HMC1053 on three ADC channels. `set_reset(+1)` fires a SET pulse, `set_reset(-1)` a RESET pulse."""
 

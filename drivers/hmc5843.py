@@ -11,7 +11,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, choose
-from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Wiring
+from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Wiring, chip_driver
 from drivers.errors import SensorFault, SensorSaturated, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit, RWBits
 
@@ -52,6 +52,7 @@ READY_POLLS, READY_POLL_S = 150, 0.02  # kernel: 150 polls of STATUS.RDY, 20 ms 
 _XYZ = struct.Struct(">hhh")
 
 
+@chip_driver
 class HMC5843(Sensor, DataReady, KeepsConfiguration):
     """HMC5843 in continuous mode. `gain` is in LSB per gauss (kernel table), `rate_hz` the DO output rate."""
 

@@ -13,7 +13,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, choose
-from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Thermometer, Wiring
+from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Thermometer, Wiring, chip_driver
 from drivers.errors import SensorFault, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit, RWBit, RWBits
 
@@ -74,6 +74,7 @@ def exact_rates(dlpf_hz: int) -> dict[float, int]:
     return {internal // (d + 1): d for d in range(256) if internal % (d + 1) == 0}
 
 
+@chip_driver
 class ITG3200(Sensor, DataReady, Thermometer, KeepsConfiguration):
     """ITG-3200 at +-2000 deg/s with the PLL on the X gyro as clock.
 

@@ -19,7 +19,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, StSpiRegisters, check_not_floating, choose, spi_label
-from drivers.contract import DataReady, KeepsConfiguration, Part, Placement, Sensor, Thermometer, Wiring
+from drivers.contract import DataReady, KeepsConfiguration, Part, Placement, Sensor, Thermometer, Wiring, chip_driver
 from drivers.errors import FifoOverrun, SensorFault, WrongIdentity
 from drivers.regmap import RegisterMap, Reg, ROBit, ROBits, RWBit, RWBits
 from drivers.units import STANDARD_GRAVITY
@@ -268,6 +268,7 @@ class _View(Sensor, DataReady, Thermometer):
         raise TypeError("an LSM6DS sensor view is built by its chip, not placed on a board")
 
 
+@chip_driver
 class LSM6DSO(LSM6DSFamily):
     chip = "LSM6DSO"
     CHIP_ID = 0x6C

@@ -11,7 +11,7 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import spi_label
-from drivers.contract import Part, Placement, Wiring
+from drivers.contract import Part, Placement, Wiring, chip_driver
 from drivers.errors import DeviceAbsent, ProtocolError, wrap_os_error
 
 START = 0x04
@@ -35,6 +35,7 @@ _SINGLE = {ch: command_bytes(ch, True) for ch in CHANNELS}
 _DIFF = {pair: command_bytes(pair, False) for pair in DIFF_PAIRS}
 
 
+@chip_driver
 class MCP3208(Part):
     """MCP3208 on a spidev-like object; `vref` (volts) converts codes to volts."""
 
