@@ -32,6 +32,7 @@ from rig.errors import CalibrationError
 
 N_FIXED = 14   # B (3) + H (9) + direction of v (2); then one sample-time offset per label of MoveSamples.move
 MAX_OFFSET_S = 0.05   # a fitted delta beyond this is no timing offset but a misfit: the move samples are refused
+OFFSET_STD_S = 0.002  # a stretch of sampling that fixes its offset no better than this shares its neighbour's
 REWEIGHT_ABOVE = 1.1  # move residuals scattered beyond this many times the sensor's noise: weighted by their scatter
 
 
@@ -76,6 +77,25 @@ def calibrate_with_moves(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.
     return fit
 
 
+def observable_labels(label: np.ndarray, omega: np.ndarray, x: np.ndarray, K: np.ndarray,
+                      sigma: np.ndarray) -> np.ndarray:
+    """The offset labels with every stretch that cannot fix its own offset (a few rows, or rows where the table
+    hardly turns: a stall at the end of a move starts a stretch of still rows) joined to the stretch before it
+    (the first to the next): its offset moves the fit by nothing, and left free it wandered to 1e11 ms and had
+    every move sample refused (fault campaign). A stretch keeps its own offset where it determines it to
+    OFFSET_STD_S or better (the Fisher information of delta in `u + delta w x u`)."""
+    if len(label) == 0:
+        return label
+    info = np.bincount(label, weights=np.sum((np.cross(omega, x) @ K.T / sigma) ** 2, axis=1),
+                       minlength=int(label.max()) + 1)
+    own = info * OFFSET_STD_S ** 2 >= 1.0
+    if not own.any():
+        return np.zeros_like(label)
+    keep = np.flatnonzero(own)
+    target = keep[np.clip(np.searchsorted(keep, np.arange(len(own)), side="right") - 1, 0, None)]
+    return np.unique(target, return_inverse=True)[1][label]
+
+
 def _fit(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.ndarray, sigma_holds: np.ndarray,
          norm: float, moves: MoveSamples) -> TriadCalibration:
     v0 = np.asarray(hold_fit.extra["reference_world"], dtype=float)
@@ -87,7 +107,8 @@ def _fit(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.ndarray, sigma_h
     C = np.zeros((len(Y), 3))
     C[n:] = moves.extra
     S = np.vstack([np.broadcast_to(sigma_holds, (n, 3)), np.broadcast_to(moves.sigma, (len(moves), 3))])
-    label = moves.labels()
+    label = observable_labels(moves.labels(), moves.omega, np.einsum("kji,j->ki", moves.R, v0),
+                              np.linalg.inv(hold_fit.H), moves.sigma)
     groups = int(label.max()) + 1 if len(label) else 0
     n_params = N_FIXED + groups
     E = tangent_basis(v0) * norm

@@ -178,3 +178,20 @@ def test_rig_calibrate_from_holds_only_keeps_the_hold_fit(tmp_path):
         assert "move_samples" not in docs["holds"]["sensors"][name]
         assert docs["moves"]["sensors"][name]["move_samples"] > 1000
         assert docs["moves"]["sensors"][name]["hold_only"]["H"] == docs["holds"]["sensors"][name]["H"]
+
+
+def test_a_stretch_too_still_to_fix_its_offset_shares_its_neighbours():
+    """A stall at the end of a move starts a stretch of still rows: left with its own offset, the fit let it
+    wander beyond any clock (1e11 ms in a fault campaign session) and refused every move sample."""
+    rng = np.random.default_rng(4)
+    y_means, y_std, R, v, H, B, moves = synthetic(rng)
+    label = np.asarray(moves.move, dtype=int).copy()
+    n_per_move = len(moves) // 9
+    still = np.arange(n_per_move - 3, n_per_move)                # the last rows of the first move: at rest
+    label[still] = label.max() + 1
+    moves = MoveSamples(moves.y, moves.R, moves.omega, moves.extra, moves.sigma, label)
+    hold_fit = calibrate_joint(y_means, R, NORM, y_std=y_std, counts=np.full(len(R), HOLD_SAMPLES))
+    fit = calibrate_with_moves(hold_fit, y_means, R, np.full((len(R), 3), SIGMA / np.sqrt(HOLD_SAMPLES)), NORM, moves)
+    low, high = fit.extra["time_offset_range_s"]
+    assert abs(low - OFFSET_S) < 5e-4 and abs(high - OFFSET_S) < 5e-4, (low, high)
+    assert h_error(fit.H, H) < h_error(hold_fit.H, H) * 1.5
