@@ -147,9 +147,15 @@ def chip_driver(cls: P) -> P:
     name = cls.__dict__.get("chip")
     if not isinstance(name, str) or not name:
         raise TypeError(f"@chip_driver: {cls.__module__}.{cls.__qualname__} declares no `chip` name of its own")
-    known = REGISTERED.get(name)
-    if known is not None and (known.__module__, known.__qualname__) != (cls.__module__, cls.__qualname__):
-        raise ValueError(f"chip {name!r} registered twice: {known.__module__}.{known.__qualname__} and "
-                         f"{cls.__module__}.{cls.__qualname__}")
-    REGISTERED[name] = cls
-    return cls
+    return register_once(REGISTERED, name, cls, "chip")
+
+
+def register_once(table: dict, key: str, entry, what: str):
+    """`table[key] = entry`, refusing a second, different entry for one key (named in the message); the same
+    entry seen again (its module reloaded) replaces its old self. The drivers' and the emulators' registries."""
+    known = table.get(key)
+    if known is not None and (known.__module__, known.__qualname__) != (entry.__module__, entry.__qualname__):
+        raise ValueError(f"{what} {key!r} registered twice: {known.__module__}.{known.__qualname__} and "
+                         f"{entry.__module__}.{entry.__qualname__}")
+    table[key] = entry
+    return entry
