@@ -8,6 +8,9 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from selenium.common.exceptions import WebDriverException
+from selenium.webdriver.support.ui import WebDriverWait
+
 CHROMIUM = os.environ.get("RIG_CHROMIUM", "/usr/bin/chromium")
 CHROMEDRIVER = os.environ.get("RIG_CHROMEDRIVER", "/usr/bin/chromedriver")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -53,3 +56,14 @@ def screenshot(driver, name: str) -> Path:
     driver.save_screenshot(str(path))
     print(f"screenshot: {path}")
     return path
+
+
+def navigate(browser, element) -> None:
+    """Click what leads to another page and wait until that page has replaced this one and loaded.
+
+    The old page is marked in its window rather than watched through a node: asked about a node of a page
+    being replaced, Chromium sometimes answers with an inspector error instead of "stale" (failed CI once)."""
+    browser.execute_script("window.__leaving = true")
+    element.click()
+    WebDriverWait(browser, 15, ignored_exceptions=(WebDriverException,)).until(
+        lambda b: b.execute_script("return window.__leaving === undefined && document.readyState === 'complete'"))

@@ -19,7 +19,7 @@ from selenium.webdriver.support.ui import WebDriverWait
 
 from rig.lab.mirror import live_mirror
 
-from .browser import screenshot
+from .browser import navigate, screenshot
 from .conftest import RIG, no_traceback, rig
 from .test_push import local_counts, stored_counts
 
@@ -51,9 +51,7 @@ def test_a_running_session_is_watched_live_in_a_browser(tmp_path, pg_url, serve,
             time.sleep(0.3)
         assert links, f"the running session never appeared in the list; mirror: {log}"
         assert browser.find_element(By.CSS_SELECTOR, "#sessions td.status").text == "running"
-        page = browser.find_element(By.TAG_NAME, "html")
-        links[0].click()
-        WebDriverWait(browser, 15).until(expected_conditions.staleness_of(page))
+        navigate(browser, links[0])
         shot_mid = False
         while time.monotonic() < deadline:
             text = browser.find_element(By.ID, "progress").text

@@ -8,24 +8,16 @@ import urllib.request
 
 import pytest
 from selenium.webdriver.common.by import By
-from selenium.webdriver.support import expected_conditions
-from selenium.webdriver.support.ui import Select, WebDriverWait
+from selenium.webdriver.support.ui import Select
 
 from fixtures.world.effects.table_axis_misalignment import TableAxisMisalignment
 
-from .browser import screenshot
+from .browser import navigate, screenshot
 from .conftest import make_archive, rig
 
 EVIL_UNIT = "<script>window.__pwned = 1</script>"
 EVIL_OPERATOR = '<img src=x onerror="window.__pwned = 2">'
 EVIL_SESSION = "<b onmouseover=alert(1)>name</b>"
-
-
-def navigate(browser, element) -> None:
-    """Click what leads to another page and wait until that page has replaced this one."""
-    page = browser.find_element(By.TAG_NAME, "html")
-    element.click()
-    WebDriverWait(browser, 15).until(expected_conditions.staleness_of(page))
 
 
 @pytest.fixture(scope="module")
