@@ -104,8 +104,11 @@ class PgServer:
             time.sleep(0.05)
         if pids and not any(_alive(p) for p in pids):
             # A killed postmaster is a zombie until its parent (init here) reaps it, and a zombie still answers
-            # kill(pid, 0): the restart would take its lock file for a live server. Dead is dead: drop the file.
+            # kill(pid, 0): the restart would take its lock files for a live server. Dead is dead: drop them, the
+            # data folder's and the Unix socket's (the second failed a CI run once the first was handled).
             (self.data / "postmaster.pid").unlink(missing_ok=True)
+            for name in (f".s.PGSQL.{self.port}.lock", f".s.PGSQL.{self.port}"):
+                (self.root / name).unlink(missing_ok=True)
 
     def url(self, db: str = "postgres", user: str = SUPERUSER) -> str:
         return f"postgresql://{user}@127.0.0.1:{self.port}/{db}"
