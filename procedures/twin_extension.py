@@ -84,6 +84,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
     causes, floors = [], {}
     longest = max(rec.poses, key=lambda p: len(p.rows))
     fams = off_families(real, bands, off, replicas)
+    not_still = bool({"gyro.spread", "accel.spread"} & fams) and "gyro" in replay.sensors
     for sensor, model in replay.sensors.items():
         y = session.raw[sensor]
         scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT_UNITS[sensor][1]   # reported unit per raw unit
@@ -93,7 +94,11 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
             q = np.array([value_step(_clean(y)[:, k]) for k in range(3)])
         shaped = bool({f"{sensor}.adev", f"{sensor}.psd"} & fams)
         if q is not None:
-            white = pooled_noise(session, rec, sensor, q)       # the noise ahead of the rounding the step implies
+            # the noise ahead of the rounding the step implies; where poses are not still, the quiet poses' (the
+            # disturbance of the others is the hold_not_still cause's, not counted twice)
+            white = (quiet_noise if not_still else pooled_noise)(session, rec, sensor, q)
+            if not_still:
+                floors[sensor] = white
             noise = [] if shaped else [lambda seed, s=sensor, w=white: ShapedNoise(s, taps=np.ones((3, 1)), std=w,
                                                                                   seed=seed * 7 + 6)]
             causes.append(Cause(Quantisation.name, sensor, float((q * scale).max()),
@@ -138,8 +143,8 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
             share = float(100 * np.mean((clean == lo) | (clean == hi)))
             causes.append(Cause(Saturation.name, sensor, share, {"low": lo.tolist(), "high": hi.tolist()},
                                 (f"{sensor}.pinned",), lambda seed, s=sensor, lo=lo, hi=hi: [Saturation(s, low=lo, high=hi)]))
-    if {"gyro.spread", "accel.spread"} & fams and "gyro" in replay.sensors:
-        causes.append(_hold_not_still(session, rec, real, bands, replay, floors))
+    if not_still:
+        causes.append(_hold_not_still(session, rec, replay, floors))
     return causes
 
 
@@ -155,53 +160,54 @@ def _excess_scatter(real: dict, bands: dict, sensor: str, rec: RecordingCalibrat
     return out
 
 
-def _hold_not_still(session: SessionData, rec: RecordingCalibration, real: dict, bands: dict, replay: Replay,
-                    floors: dict) -> Cause:
-    """Each pose's own wobble (gyro spread) and shake (accelerometer spread) beyond the noise floor: the quietest
-    poses' where the white noise is refitted (`floors`), else the replicas' white noise."""
-    rates, shakes, spans = [], [], []
-    for p in rec.poses:
-        rates.append(math.sqrt(_excess(real, bands, rec, "gyro", p.name, floors.get("gyro"))))
-        shakes.append(math.sqrt(_excess(real, bands, rec, "accel", p.name, floors.get("accel")))
-                      if "accel" in replay.sensors else 0.0)
-        spans.append((float(session.t[p.rows[0]]), float(session.t[p.rows[-1]])))
-    rates, shakes = np.array(rates), np.array(shakes)
-    rate_rms = float(np.sqrt(np.mean(rates ** 2)))
-    shake_rms = float(np.sqrt(np.mean(shakes ** 2)))
-    gyro_env = tuple((a, b, r / rate_rms if rate_rms else 0.0) for (a, b), r in zip(spans, rates))
-    accel_env = tuple((a, b, x / shake_rms if shake_rms else 0.0) for (a, b), x in zip(spans, shakes))
-    rms_dps = math.degrees(rate_rms)
+def _hold_not_still(session: SessionData, rec: RecordingCalibration, replay: Replay, floors: dict) -> Cause:
+    """Poses that move: each pose's spread beyond the quiet poses' (their lower quartile), per axis, as the wobble
+    of the gyro and the shake of the accelerometer. A replica's pose takes the disturbance of a pose drawn from the
+    recording's own (gyro and accelerometer together, per axis): the model is that every pose is disturbed by one
+    random process, the recording's, not that a given pose was; so a pose's spread is judged against what any pose
+    of the recording shows, and a pose disturbed beyond all others stays outside. Sensors whose white noise no
+    other cause sets (`floors`) get the quiet poses' level here."""
+    quiet = {s: quiet_spread(session, rec, s) for s in ("gyro", "accel") if s in replay.sensors}
+    excess = {s: np.array([_pose_excess(session, rec, s, p, quiet[s]) for p in rec.poses]) for s in quiet}
+    spans = [(float(session.t[p.rows[0]]), float(session.t[p.rows[-1]])) for p in rec.poses]
+    rms = {s: float(np.sqrt(np.mean(e.sum(axis=1)))) for s, e in excess.items()}
+    gains = {s: np.sqrt(3 * e) / rms[s] if rms[s] else np.zeros_like(e) for s, e in excess.items()}
+    whites = {s: quiet_noise(session, rec, s) for s in quiet if s not in floors}
+    rms_dps, shake = math.degrees(rms["gyro"]), rms.get("accel", 0.0)
 
     def make(seed):
-        return [HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=gyro_env, seed=seed * 7 + 4),
-                HoldNotStill("accel", shake_rms=shake_rms, tau_s=SHAKE_TAU_S, envelope=accel_env, seed=seed * 7 + 5)]
+        drawn = np.random.default_rng(seed * 7 + 4).integers(len(spans), size=len(spans))
+        env = {s: tuple((a, b, g[j]) for (a, b), j in zip(spans, drawn)) for s, g in gains.items()}
+        noise = [ShapedNoise(s, taps=np.ones((3, 1)), std=w, seed=seed * 7 + 5 + 100_000 * (k + 1))
+                 for k, (s, w) in enumerate(whites.items())]
+        return noise + [HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=env["gyro"], seed=seed * 7 + 4)] \
+            + ([HoldNotStill("accel", shake_rms=shake, tau_s=SHAKE_TAU_S, envelope=env["accel"], seed=seed * 7 + 4)]
+               if "accel" in env else [])
     return Cause(HoldNotStill.name, "gyro", rms_dps,
-                 {"rms_dps": rms_dps, "shake_rms_mps2": shake_rms,
-                  "per_pose_dps": dict(zip([p.name for p in rec.poses], np.degrees(rates).tolist()))},
-                 ("gyro.spread", "accel.spread", "gyro.adev", "gyro.psd", "accel.adev", "accel.psd"), make)
+                 {"rms_dps": rms_dps, "shake_rms_mps2": shake,
+                  "per_pose_dps": dict(zip([p.name for p in rec.poses],
+                                           np.degrees(np.sqrt(excess["gyro"].sum(axis=1))).tolist())),
+                  "model": "each pose's disturbance, per axis, drawn from the recording's own poses"},
+                 ("gyro.spread", "accel.spread", "gyro.adev", "gyro.psd", "accel.adev", "accel.psd"), make,
+                 quiet=tuple(whites))
 
 
-def _excess(real: dict, bands: dict, rec: RecordingCalibration, sensor: str, pose: str,
-            floor: np.ndarray | None) -> float:
-    """Variance (calibrated units squared, summed over axes) of a pose's samples beyond the noise floor (raw
-    units per axis) or, without one, beyond the replicas' median."""
-    if sensor not in rec.sensors:
-        return 0.0
-    H = rec.sensors[sensor].H
-    total = 0.0
-    for k, axis in enumerate("xyz"):
-        name = f"{sensor}.spread.{axis}[{pose}]"
-        if name in real and name in bands:
-            base = floor[k] if floor is not None else bands[name][2]
-            total += max(real[name] ** 2 - base ** 2, 0.0) * H[k, k] ** 2
-    return total
+def _pose_excess(session: SessionData, rec: RecordingCalibration, sensor: str, pose, quiet: np.ndarray) -> np.ndarray:
+    """Per axis, a pose's variance beyond the quiet level, in calibrated units squared."""
+    spread = _clean(session.raw[sensor][pose.rows]).std(axis=0, ddof=1)
+    return np.maximum(spread ** 2 - quiet ** 2, 0.0) * np.diag(rec.sensors[sensor].H) ** 2
+
+
+def quiet_spread(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
+    """Per axis, the spread of the quieter poses (their lower quartile), raw units, rounding included."""
+    spreads = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
+    return np.percentile(spreads, 25, axis=0)
 
 
 def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None = None) -> np.ndarray:
     """Per axis, the spread of the quieter poses (their lower quartile): the sensor's own noise, which the poses
     where a hand shook cannot lower; ahead of the rounding (counts, or the step `q` of a quantised recording)."""
-    spreads = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
-    return _ahead_of_rounding(session, sensor, np.percentile(spreads, 25, axis=0), q)
+    return _ahead_of_rounding(session, sensor, quiet_spread(session, rec, sensor), q)
 
 
 def pooled_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None) -> np.ndarray:
