@@ -46,6 +46,7 @@ class Replay:
     rate_hz: float
     source: str
     carry_sd: float | None = None         # the recording's trust in its hand motions, kept for every replica
+    gyro_start: np.ndarray | None = None  # the recording's gyro H, where a replica's gyro fit starts
 
 
 def twin_view(session: SessionData, rec: RecordingCalibration) -> SessionData:
@@ -100,7 +101,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
-                  rec.sensors["gyro"].extra.get("carry_sd"))
+                  rec.sensors["gyro"].extra.get("carry_sd"), rec.sensors["gyro"].H)
 
 
 def _attitudes(t: np.ndarray, omega: np.ndarray, pose_of: np.ndarray, up: list[np.ndarray]) -> np.ndarray:
@@ -210,7 +211,8 @@ def _one_replica(task: tuple[int, int]) -> dict | None:
     job = _JOBS[j]
     rep = replica(job.replay, seed, job.effects_for(seed), job.quiet)
     try:
-        return recording_statistics(rep, calibrate_recording(rep, carry_sd=job.replay.carry_sd))
+        return recording_statistics(rep, calibrate_recording(rep, carry_sd=job.replay.carry_sd,
+                                                             gyro_start=job.replay.gyro_start))
     except CalibrationError:
         return None
 
