@@ -5,7 +5,11 @@ so that `rig calibrate --from` is tested against choices the spec allows but our
 other sample rates, filtered gyro samples, multi-rate rows, an optical-tracker reference, jittered or
 Unix timestamps, strong mounting rotations, lever arms and settling.
 
-Usage: python tests/independent_vary/vary_sim.py OUT --seed N [--variant NAME]
+Usage: python tests/independent_vary/vary_sim.py OUT --seed N [--variant NAME] [--schedule FILE.json]
+
+`--schedule` (or `generate(..., schedule=Schedule(...))`) replaces the random orientations, hold lengths and
+move limits by a plan given from outside, so that one plan can be run here and on the rig (issue 15: the
+planner's plan against today's default). The unit, its noise and everything else stay the variant's.
 """
 from __future__ import annotations
 
@@ -375,6 +379,66 @@ def build_timeline(cfg: Config, ang: np.ndarray, rng: np.random.Generator) -> Ti
     return Timeline(outer, inner, np.array(starts), np.array(ends), ends[-1])
 
 
+@dataclass(frozen=True)
+class Schedule:
+    """A plan given from outside instead of `orientation_schedule` and the variant's holds and move limits.
+
+    Why: to run the rig's own plans (its default, the planner's) on this simulator with its own unit and noise,
+    so a claim about a plan is not measured on the rig's simulator alone. A rig commands table positions, so
+    each axis turns straight from one angle to the next (not the short way the random schedules take, which
+    would change the moves' lengths), both axes starting together on their own trapezoids of `vmax_dps`
+    and `amax_dps2`; `settle_s` of stillness, labelled move, follows each motion (the rig's settle wait and
+    status polls) before the next hold. The variant's own motion effects (padding, early holds, ringing,
+    sequential axes) still apply; its `n_orient`, `hold_s`, `revisit`, `long_moves`, `vmax_dps` and
+    `amax_dps2` are the schedule's instead."""
+    angles_deg: tuple[tuple[float, float], ...]    # (outer, inner) of each hold, in order
+    hold_s: tuple[float, ...]                      # seconds of each hold
+    vmax_dps: float
+    amax_dps2: float
+    settle_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if len(self.angles_deg) < 2 or any(len(a) != 2 for a in self.angles_deg):
+            raise ValueError("a schedule needs at least two (outer, inner) angle pairs")
+        if len(self.hold_s) != len(self.angles_deg) or min(self.hold_s) <= 0:
+            raise ValueError(f"a schedule needs one positive hold length per orientation ({len(self.angles_deg)})")
+        if not (self.vmax_dps > 0 and self.amax_dps2 > 0 and self.settle_s >= 0):
+            raise ValueError("a schedule needs positive speed and acceleration limits and a settle time >= 0")
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Schedule:
+        """{"orientations": [[outer, inner], ...], "hold_s": S or [S, ...], "speed_dps": V, "accel_dps2": A,
+        "settle_s": T (optional)}, angles in degrees."""
+        angles = tuple((float(a), float(b)) for a, b in d["orientations"])
+        hold = d["hold_s"]
+        holds = tuple(float(h) for h in hold) if isinstance(hold, list) else (float(hold),) * len(angles)
+        return cls(angles, holds, float(d["speed_dps"]), float(d["accel_dps2"]), float(d.get("settle_s", 0.0)))
+
+
+def scheduled_timeline(cfg: Config, sch: Schedule, rng: np.random.Generator) -> Timeline:
+    """The timeline of an explicit schedule (see `Schedule`); `build_timeline` is the random schedules'."""
+    ang = np.asarray(sch.angles_deg, float)
+    outer, inner = AxisPath(ang[0, 0]), AxisPath(ang[0, 1])
+    starts, ends = [0.0], []
+    for j in range(len(ang)):
+        ends.append(starts[-1] + sch.hold_s[j] + (cfg.hold_early_s if j else 0.0))
+        if j == len(ang) - 1:
+            break
+        t_motion = ends[-1] + cfg.move_pad_s
+        t_end = t_motion
+        for k, path in enumerate((outer, inner)):
+            delta = ang[j + 1, k] - ang[j, k]
+            if abs(delta) < 1e-9:
+                continue
+            mv = Move(t_end if cfg.sequential_axes else t_motion, ang[j, k], delta, sch.vmax_dps, sch.amax_dps2)
+            path.moves.append(mv)
+            t_end = max(t_end, mv.t0 + mv.duration)
+            if cfg.ring_deg:
+                path.rings.append(Ring(mv.t0 + mv.duration, cfg.ring_deg * rng.uniform(0.5, 1.0), 7.0, 0.12))
+        starts.append(t_end + sch.settle_s + cfg.move_pad_s - cfg.hold_early_s)
+    return Timeline(outer, inner, np.array(starts), np.array(ends), ends[-1])
+
+
 # ---------------------------------------------------------------- sampling
 def sample_times(cfg: Config, sensors: list[SensorTruth], end: float, rng: np.random.Generator):
     """Row instants (union of all sensors' instants) and, per sensor, a mask of rows it fills."""
@@ -468,13 +532,18 @@ def labels(tl: Timeline, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.where(in_hold, "hold", "move"), j_hold
 
 
-def generate(cfg: Config, seed: int) -> Session:
+def generate(cfg: Config, seed: int, schedule: Schedule | None = None) -> Session:
+    """The session of variant `cfg` and unit `seed`; with `schedule`, that plan instead of a random one (the
+    unit, drawn first, is the same either way)."""
     rng = np.random.default_rng(seed)
     board = mounting(cfg.mount, rng)
     sensors = [make_sensor(n, cfg, rng, board) for n in ("accel", "gyro", "mag")]
     sensors = [x for x in sensors if x.name in cfg.sensors]
-    ang = orientation_schedule(cfg, rng)
-    tl = build_timeline(cfg, ang, rng)
+    if schedule is None:
+        ang = orientation_schedule(cfg, rng)
+        tl = build_timeline(cfg, ang, rng)
+    else:
+        tl = scheduled_timeline(cfg, schedule, rng)
     t, masks = sample_times(cfg, sensors, tl.end, rng)
     t_true = t.copy()
     if cfg.jitter_s:
@@ -586,6 +655,18 @@ def config_for(variant: str) -> Config:
     return replace(Config(), **VARIANTS[variant])
 
 
+def load_schedule(path: Path) -> Schedule:
+    """The schedule in a JSON file, or exit with a message saying what is wrong with it (no traceback)."""
+    try:
+        return Schedule.from_dict(json.loads(path.read_text()))
+    except OSError as e:
+        raise SystemExit(f"--schedule {path}: {e.strerror}") from None
+    except KeyError as e:
+        raise SystemExit(f"--schedule {path}: not a schedule (no {e} key)") from None
+    except (ValueError, TypeError) as e:
+        raise SystemExit(f"--schedule {path}: not a schedule ({e})") from None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path)
@@ -594,7 +675,15 @@ def main() -> None:
     ap.add_argument("--sweep", type=int, metavar="N_SEEDS", help="calibrate all variants (or --variant) with "
                     "seeds 0..N-1 via `rig calibrate`, sessions under OUT; print worst errors as JSON")
     ap.add_argument("--only", nargs="*", help="with --sweep: these variants")
+    ap.add_argument("--schedule", type=Path, metavar="FILE.json", help="follow this plan instead of a random one: "
+                    '{"orientations": [[outer, inner], ...], "hold_s": S or [S, ...], "speed_dps": V, '
+                    '"accel_dps2": A, "settle_s": T} (degrees, seconds; see Schedule)')
     args = ap.parse_args()
+    if args.schedule is not None:
+        if args.sweep:
+            ap.error("--schedule makes one session; it does not combine with --sweep")
+        write_session(generate(config_for(args.variant), args.seed, load_schedule(args.schedule)), args.out)
+        return
     if args.sweep:
         names = args.only or list(VARIANTS)
         print(json.dumps(sweep(names, list(range(args.sweep)), args.out), indent=1))
