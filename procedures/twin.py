@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import multiprocessing as mp
 import os
+import signal
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -189,7 +190,7 @@ def replica_runs(jobs: list[ReplicaJob], workers: int | None = None) -> list[tup
     _JOBS = jobs
     try:
         if workers > 1 and "fork" in mp.get_all_start_methods():
-            with mp.get_context("fork").Pool(workers) as pool:
+            with mp.get_context("fork").Pool(workers, initializer=leave_stop_signals_to_parent) as pool:
                 results = pool.map(_one_replica, tasks, chunksize=1)
         else:
             results = [_one_replica(task) for task in tasks]
@@ -204,6 +205,16 @@ def replica_runs(jobs: list[ReplicaJob], workers: int | None = None) -> list[tup
 
 
 _JOBS: list[ReplicaJob] | None = None
+
+
+def leave_stop_signals_to_parent() -> None:
+    """A worker's stop signals are its parent's to act on: Ctrl-C reaches the whole process group, and a worker
+    that took it printed its traceback on the user's terminal; the parent ends the pool on its way out, by SIGTERM,
+    which ends a worker quietly (a parent's own handler, inherited by the fork, is put back to the default)."""
+    for name in ("SIGINT", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _one_replica(task: tuple[int, int]) -> dict | None:
@@ -229,7 +240,7 @@ class Background:
         if (os.cpu_count() or 1) > 1 and "fork" in mp.get_all_start_methods():
             _BACKGROUND = (fn, args)
             try:
-                self._pool = mp.get_context("fork").Pool(1)
+                self._pool = mp.get_context("fork").Pool(1, initializer=leave_stop_signals_to_parent)
             finally:
                 _BACKGROUND = None
             self._async = self._pool.apply_async(_run_background)

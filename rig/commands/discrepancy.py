@@ -96,11 +96,14 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
                heldout: bool = False) -> None:
     """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
     from procedures.twin_analysis import analyse_twin
+    from rig.commands.calibrate import stop_signals_raise
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
 
     try:
-        with warnings.catch_warnings():
+        # a stop signal raised here, not the default death: the replicas' pools are ended on the way out, not
+        # left to finish into a closed pipe
+        with warnings.catch_warnings(), stop_signals_raise():
             warnings.simplefilter("ignore", RuntimeWarning)
             twin = analyse_twin(session, replicas=replicas, heldout=heldout)
     except RigError as exc:

@@ -115,3 +115,29 @@ def test_poses_shaken_each_along_its_own_axis_are_named_not_still_and_come_back_
     assert not set(shaken) & set(s["outside_after"]), s["outside_after"]
     # 18 spreads against a 1-99 % band of 30 replicas: about 1 outside by chance (2/31 each)
     assert len([n for n in s["outside_after"] if n.startswith("accel.spread")]) <= 3, s["outside_after"]
+
+
+def test_ctrl_c_during_the_replicas_ends_the_twin_with_one_line_and_no_worker_left(tmp_path):
+    """Ctrl-C reaches the whole process group, the replicas' forked workers too: they leave it to the rig process,
+    which ends its pools and exits 130 with one line; before, every worker printed its KeyboardInterrupt
+    traceback on the user's terminal (and a SIGTERM left them to finish into a closed pipe)."""
+    import os
+    import signal
+    import time
+
+    session, _ = generate(7, face_s=8.0)
+    folder = write_session(session, tmp_path / "rec")
+    proc = subprocess.Popen([*RIG, "discrepancy", str(folder), "--json", str(tmp_path / "d.json"), "--replicas", "200"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children")
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None and not children.read_text().split():
+        time.sleep(0.05)
+    workers = children.read_text().split()
+    assert workers, "the replicas' pool never started"
+    time.sleep(0.5)
+    os.killpg(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, (proc.returncode, err)
+    assert "Traceback" not in err and err.strip().splitlines() == ["aborted"], err
+    assert not [w for w in workers if Path(f"/proc/{w}").exists()]
