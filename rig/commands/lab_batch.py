@@ -26,6 +26,7 @@ from rig.exits import CommandError, Exit
 @json_option
 def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
     """Re-run calibration or the discrepancy analysis over stored sessions; results go back to the store."""
+    from rig.commands.calibrate import stop_signals_raise
     from rig.lab.batch import run_batch
     from rig.lab.errors import is_database_url
     from rig.lab.records import Filters
@@ -43,9 +44,10 @@ def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
                 write_json(json_out, {"schema": "rig-batch/1", "kind": kind, "sessions": 0, "ok": 0, "failed": []})
                 return
             try:
-                summary = run_batch(store, url, kind, keys, scheduler=scheduler, workers=workers,
-                                    options={"method": method, "replay": _replay() if replay else None},
-                                    echo=click.echo)
+                with stop_signals_raise():      # the cluster closed on the way out, not left behind
+                    summary = run_batch(store, url, kind, keys, scheduler=scheduler, workers=workers,
+                                        options={"method": method, "replay": _replay() if replay else None},
+                                        echo=click.echo)
             except OSError as exc:
                 raise CommandError(f"Dask scheduler {scheduler or '(local cluster)'}: {exc}", Exit.FAILED) from None
         finally:

@@ -9,11 +9,14 @@ never a crash of the batch. A LocalCluster is started unless a scheduler address
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
 import math
+import signal
 import tempfile
+import threading
 import time
 import warnings
 from datetime import datetime, timezone
@@ -101,6 +104,23 @@ def _finite(value):
     return value
 
 
+@contextlib.contextmanager
+def ctrl_c_left_to_this_process():
+    """Processes started here ignore SIGINT (the disposition survives their exec, and Python then installs no
+    KeyboardInterrupt of its own): Ctrl-C reaches the whole process group, and each Dask worker that took it
+    printed its traceback on the user's terminal. This process stops and closes the cluster itself. The price: a
+    Ctrl-C in the second the cluster takes to start is not seen (a blocked signal would be held, not lost, but
+    the workers do not keep a mask)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 def run_batch(store, store_url: str, kind: str, keys: list[str], *, scheduler: str | None = None,
               workers: int | None = None, options: dict | None = None, echo=print) -> dict:
     """Run `kind` over `keys` on Dask and save every result to `store`; a summary of the run."""
@@ -113,8 +133,9 @@ def run_batch(store, store_url: str, kind: str, keys: list[str], *, scheduler: s
     if scheduler:
         client = Client(scheduler, timeout="10s")
     else:
-        cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.CRITICAL)
+        with ctrl_c_left_to_this_process():
+            cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.CRITICAL)
         client = Client(cluster)
     try:
         n_workers = len(client.scheduler_info()["workers"])
