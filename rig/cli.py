@@ -33,6 +33,8 @@ SUBCOMMANDS: dict[str, tuple[str, str] | str] = {
     "paper": ("rig.commands.paper:paper", "Reproduce Table I (accelerometer) and Table II (gyroscope) of Zhang et al."),
     "discrepancy": ("rig.commands.discrepancy:discrepancy",
                     "Fit the linear model, test every candidate effect, report the ones the data support."),
+    "noise": ("rig.commands.noise:noise",
+              "The Allan deviation of a static recording and its noise terms, per sensor and axis."),
     "attitude": ("rig.commands.attitude:attitude",
                  "Run the quaternion UKF on a session with motion (the rig's folder or an interchange one) and "
                  "compare with its reference."),
