@@ -12,6 +12,7 @@ the option types that refuse bad numbers at the command line.
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import math
 import re
@@ -19,7 +20,7 @@ import signal
 
 import click
 
-from rig.errors import Busy, InputError
+from rig.errors import Busy, InputError, StopSignal
 
 
 # True in the `rig` process itself (set by the command line's entry), where the process exits as soon as its
@@ -34,6 +35,32 @@ class Exit(enum.IntEnum):
     FAILED = 3
     BUSY = 4
     INTERNAL = 70
+
+
+STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
+
+
+@contextlib.contextmanager
+def stop_signals_raise():
+    """SIGINT, SIGTERM and SIGHUP raise `StopSignal(signum)` where the work is (like Ctrl-C, but naming the
+    signal), once: a repeat while the table is being made safe, or a pool of workers closed, is ignored, so the
+    stop cannot be cut short. Work that starts processes runs inside it, so they are ended on the way out rather
+    than left behind by the default death."""
+    stopping = []
+
+    def handler(signum, frame):
+        if stopping:
+            return
+        stopping.append(signum)
+        raise StopSignal(signum)
+
+    sigs = [getattr(signal, name) for name in STOP_SIGNALS if hasattr(signal, name)]
+    before = {sig: signal.signal(sig, handler) for sig in sigs}
+    try:
+        yield
+    finally:
+        for sig, old in before.items():
+            signal.signal(sig, old)
 
 
 def aborted(signum: int | None) -> int:

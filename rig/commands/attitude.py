@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from rig.exits import CommandError, Exit, command_error, plain
+from rig.exits import CommandError, Exit, command_error, plain, stop_signals_raise
 
 MAG_CHOICE = click.Choice(["vector", "heading"])
 
@@ -96,7 +96,7 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
 def validate(sim, config_path, seed, calibration, method, mag_measurement, out, no_plots, no_still_detection):
     """Calibrate, run the dynamic trajectory on the same unit, and write the Table III attitude report."""
     from procedures.validation import validate_on_rig
-    from rig.commands.calibrate import build_rig, stop_signals_raise
+    from rig.commands.calibrate import build_rig
     from rig.config import load_config
     from rig.errors import RigError
 

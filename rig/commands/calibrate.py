@@ -11,6 +11,7 @@ import click
 from rig import exits
 from rig.config import RigConfig, load_config
 from rig.exits import (
+    STOP_SIGNALS,
     CommandError,
     Exit,
     FiniteFloat,
@@ -18,6 +19,7 @@ from rig.exits import (
     code_for,
     command_error,
     plain,
+    stop_signals_raise,
 )
 
 
@@ -43,34 +45,6 @@ class _Progress:
         if self.bar is not None:
             self.bar.close()
             self.bar = None
-
-
-STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
-
-
-@contextlib.contextmanager
-def stop_signals_raise():
-    """SIGINT, SIGTERM and SIGHUP raise `StopSignal(signum)` where the work is (like Ctrl-C, but naming the
-    signal), once: a repeat while the table is being made safe is ignored, so the stop cannot be cut short."""
-    import signal
-
-    from rig.errors import StopSignal
-
-    stopping = []
-
-    def handler(signum, frame):
-        if stopping:
-            return
-        stopping.append(signum)
-        raise StopSignal(signum)
-
-    sigs = [getattr(signal, name) for name in STOP_SIGNALS if hasattr(signal, name)]
-    before = {sig: signal.signal(sig, handler) for sig in sigs}
-    try:
-        yield
-    finally:
-        for sig, old in before.items():
-            signal.signal(sig, old)
 
 
 def build_rig(config: RigConfig, spec):

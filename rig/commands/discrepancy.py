@@ -18,7 +18,7 @@ from pathlib import Path
 
 import click
 
-from rig.exits import CommandError, Exit, command_error, plain
+from rig.exits import CommandError, Exit, command_error, plain, stop_signals_raise
 
 SENSORS = ("accel", "gyro", "mag")
 
@@ -96,7 +96,6 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
                heldout: bool = False) -> None:
     """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
     from procedures.twin_analysis import analyse_twin
-    from rig.commands.calibrate import stop_signals_raise
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
 

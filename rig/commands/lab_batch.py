@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from rig.commands.lab import json_option, lab_errors, opened, store_option, write_json
-from rig.exits import CommandError, Exit
+from rig.exits import CommandError, Exit, stop_signals_raise
 
 
 @click.command()
@@ -26,7 +26,6 @@ from rig.exits import CommandError, Exit
 @json_option
 def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
     """Re-run calibration or the discrepancy analysis over stored sessions; results go back to the store."""
-    from rig.commands.calibrate import stop_signals_raise
     from rig.lab.batch import run_batch
     from rig.lab.errors import is_database_url
     from rig.lab.records import Filters
