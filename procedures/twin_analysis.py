@@ -8,26 +8,22 @@ import time
 from contextlib import nullcontext
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from procedures.twin import Background, ReplicaJob, bands, reconstruct, replica_runs, twin_view
 from procedures.twin_extension import Cause, family, outside, propose
 from procedures.twin_model import added_rate, heldout_change, model_causes
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
+from rig.calibration.threads import one_blas_thread
 from rig.noise.statistics import recording_statistics
 from rig.session_data import SessionData
 
 SCHEMA = "rig-twin/1"
-# The twin's matrices are small (a few thousand rows by nine at most) and its replicas already run one per core:
-# BLAS threads only spin against each other there. Measured on the 2-core machine under load: the SVD of a
-# 3800 x 9 Jacobian 0.35 ms on one thread, 7-26 ms on two; the Xsens analysis 91 -> 59 CPU-s, same results.
-BLAS_THREADS = 1
 
 
 def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replicas: int = 10,
                  seed: int = 0, heldout: bool = False) -> dict:
     """Every statistic of the recording against its twin before and after the extension, as a JSON-able dict."""
-    with threadpool_limits(limits=BLAS_THREADS, user_api="blas"):
+    with one_blas_thread():
         return _analyse_twin(session, replicas=replicas, attribution_replicas=attribution_replicas, seed=seed,
                              heldout=heldout)
 

@@ -14,11 +14,11 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from rig.calibration import turntable_free
 from rig.calibration.recording import calibrate_recording
 from rig.calibration.result import TriadCalibration
+from rig.calibration.threads import one_blas_thread
 from rig.errors import CalibrationError
 from rig.io.imu_tk import read_imu_tk
 from rig.io.session_csv import read_session
@@ -32,11 +32,6 @@ from rig.pipeline.writing import write_session_calibration
 from rig.session_data import SessionData
 from rig.units import STANDARD_GRAVITY
 
-# The fits' matrices are small (the move rows: a few thousand by 15 at most), where BLAS threads only spin against
-# each other. Measured on the 2-core machine under load: the SVD of a 7182 x 15 Jacobian 2.5 ms on one thread,
-# 165 ms on two; a simulated session's calibration 1.15 -> 0.11 s, bit-identical results.
-BLAS_THREADS = 1
-
 
 def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: float = 0.5,
                       gyro_samples: str = "auto", move_samples: bool = True) -> SessionCalibration:
@@ -46,7 +41,7 @@ def calibrate_session(session: SessionData, *, method: str = "joint", settle_s: 
     move_samples: the joint accelerometer and magnetometer fits use the samples of the moves too
     (rig.pipeline.move_rows); False keeps them to the hold means.
     """
-    with threadpool_limits(limits=BLAS_THREADS, user_api="blas"):
+    with one_blas_thread():
         return _calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples,
                                   move_samples=move_samples)
 
