@@ -32,6 +32,7 @@ def noise(session_dir, json_out):
     holds; no calibration is needed."""
     from rig.commands.sessions import read_any_session
     from rig.errors import RigError
+    from rig.io.atomic import write_text_atomic
 
     try:
         session = read_any_session(session_dir)
@@ -48,7 +49,7 @@ def noise(session_dir, json_out):
     if json_out is not None:
         try:
             json_out.parent.mkdir(parents=True, exist_ok=True)
-            json_out.write_text(json.dumps(report, indent=2) + "\n")
+            write_text_atomic(json_out, json.dumps(report, indent=2) + "\n")
         except OSError as exc:
             raise CommandError(f"{json_out}: cannot write the report: {exc.strerror}", Exit.BAD_INPUT) from None
         click.echo(f"wrote {json_out}")
