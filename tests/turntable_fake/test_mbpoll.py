@@ -66,7 +66,8 @@ def test_mbpoll_over_rtu_on_the_pty_pair():
         assert r.returncode == 1 and "Illegal data value" in r.stderr + r.stdout
 
 
-def test_cli_serves_until_interrupted_and_refuses_remote_hosts():
+@pytest.mark.parametrize("stop, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_cli_serves_until_stopped_and_exits_as_every_command_stopped_by_a_signal(stop, code):
     proc = subprocess.Popen([sys.executable, "-u", "-m", "rig.cli", "sim-turntable", "--port", "0",
                              "--time-scale", "5"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -75,11 +76,16 @@ def test_cli_serves_until_interrupted_and_refuses_remote_hosts():
         port = int(line.split("tcp://127.0.0.1:")[1].split()[0])
         r = mbpoll(tcp_args(port, "-r", "0"))
         assert read_values(r.stdout) == [0x5454]
-        proc.send_signal(signal.SIGINT)
-        assert proc.wait(10) == 0
+        proc.send_signal(stop)
+        assert proc.wait(10) == code
+        err = proc.stderr.read()
+        assert "Traceback" not in err and err.strip().count("\n") == 0, err
     finally:
         if proc.poll() is None:
             proc.kill()
+
+
+def test_cli_refuses_remote_hosts():
     refused = subprocess.run([sys.executable, "-m", "rig.cli", "sim-turntable", "--host", "192.0.2.1"],
                              capture_output=True, text=True, timeout=30)
     assert refused.returncode == 2 and "--allow-remote" in refused.stderr
