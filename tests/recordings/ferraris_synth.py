@@ -43,7 +43,10 @@ def attitude_with_up(up: np.ndarray) -> np.ndarray:
 
 def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, turn_err_deg: float = 1.5,
              wobble_deg: float = 1.0, accel_noise: float = 1.0, gyro_noise: float = 1.0,
-             face_s: float = 5.0, move_s: float = 2.0) -> tuple[SessionData, Truth]:
+             face_s: float = 5.0, move_s: float = 2.0, shake_deg: float = 0.0,
+             shake_hz: float = 2.0) -> tuple[SessionData, Truth]:
+    """`shake_deg`: the motions between faces also swing by up to this angle about an axis that turns round at
+    `shake_hz` (a hand's motion, whose rate axis never stays put), starting and ending still."""
     rng = np.random.default_rng(seed)
     accel_H = (np.eye(3) + np.diag(rng.uniform(-0.03, 0.03, 3)) + rng.uniform(-0.01, 0.01, (3, 3)) * (1 - np.eye(3))) \
         * (G / 2048.0)
@@ -76,6 +79,29 @@ def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, tu
         t_now += n * dt
         return Rs[-1]
 
+    def shaken_turn(R0, v, seconds):
+        """R0 exp(frac(s) v) exp(sin^2(pi s) shake u(s)), u turning round the plane across v; the body rate from the
+        path itself (a difference over 1 us)."""
+        nonlocal t_now
+        n = int(round(seconds * rate_hz))
+        e1 = _unit(np.cross(v, rng.normal(size=3)))
+        e2 = _unit(np.cross(v, e1))
+        amplitude = np.radians(shake_deg)
+
+        def path(s):
+            frac = s - np.sin(2 * np.pi * s) / (2 * np.pi)
+            phase = 2 * np.pi * shake_hz * seconds * s
+            swing = amplitude * np.sin(np.pi * s) ** 2 * (np.cos(phase) * e1 + np.sin(phase) * e2)
+            return R0 @ _rotation(frac * v) @ _rotation(swing)
+
+        eps = 1e-6 / seconds
+        for s in np.arange(1, n + 1) / n:
+            Rk = path(s)
+            Rs.append(Rk)
+            ws.append(rotvec_from_matrix(Rk.T @ path(s + eps)) / (eps * seconds))
+        t_now += n * dt
+        return Rs[-1]
+
     R = None
     for name, up in FACES.items():
         tilt = axis_angle_matrix(_unit(rng.normal(size=3)), np.radians(tilt_deg) * abs(rng.normal()))
@@ -83,7 +109,10 @@ def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, tu
         tilts.append(np.degrees(np.arccos(np.clip((target.T @ [0, 0, 1.0]) @ np.array(up, float), -1, 1))))
         if R is not None:
             v = rotvec_from_matrix(R.T @ target)
-            turn(R, v / np.linalg.norm(v), np.linalg.norm(v), move_s)
+            if shake_deg:
+                shaken_turn(R, v, move_s)
+            else:
+                turn(R, v / np.linalg.norm(v), np.linalg.norm(v), move_s)
         R = target
         hold(R, face_s, name, ("+" if max(up) > 0 else "-") + "xyz"[int(np.argmax(np.abs(up)))])
     turn_angles = []
@@ -110,3 +139,8 @@ def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, tu
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
+
+
+def _rotation(rotvec: np.ndarray) -> np.ndarray:
+    angle = float(np.linalg.norm(rotvec))
+    return np.eye(3) if angle == 0 else axis_angle_matrix(rotvec / angle, angle)
