@@ -1,0 +1,89 @@
+"""Recordings unlike the two real ones, as a user brings them from their own logger: a plain CSV, imported with
+`rig import csv` and run through `rig calibrate --from`, `rig discrepancy` and `rig noise` as processes.
+
+The recordings are made here: a unit at rest in hand-placed poses (random attitudes) with smooth hand motions
+between them, gravity 9.81, white noise, biases and an H near identity. Each test breaks one thing a real logger
+breaks (a stuck axis, a paused log, a half-empty row, ...) and requires one clear line, a truthful exit code and
+no traceback, or a result that is physically right.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+RIG = [sys.executable, "-m", "rig.cli"]
+G = 9.81
+SI = ["--units", "accel=m/s^2,gyro=rad/s"]
+COLUMNS = ["--time", "time", "--accel", "ax,ay,az", "--gyro", "gx,gy,gz"]
+
+
+def recording(seed: int, *, rate: float = 50.0, poses: int = 14, rest_s: float = 50.0, pose_s=(3.0, 5.0),
+              move_s=(1.5, 2.5)) -> dict:
+    """t, accel (m/s^2), gyro (rad/s) and the pose of every row (-1 in a motion) of a hand-placed session."""
+    rng = np.random.default_rng(seed)
+    attitudes = [Rotation.random(random_state=int(rng.integers(1 << 30))) for _ in range(poses)]
+    spans = [(rest_s, 0, None)]
+    for k in range(1, poses):
+        spans += [(rng.uniform(*move_s), None, k), (rng.uniform(*pose_s), k, None)]
+    t = np.arange(int(sum(s[0] for s in spans) * rate)) / rate
+    quat, rate_body, pose = np.zeros((len(t), 4)), np.zeros((len(t), 3)), np.full(len(t), -1)
+    start = 0.0
+    for duration, still, moving_to in spans:
+        rows = (t >= start) & (t < start + duration)
+        if still is not None:
+            quat[rows], pose[rows] = attitudes[still].as_quat(), still
+        else:
+            turn = (attitudes[moving_to - 1].inv() * attitudes[moving_to]).as_rotvec()
+            tau = (t[rows] - start) / duration
+            s = 10 * tau ** 3 - 15 * tau ** 4 + 6 * tau ** 5                   # smooth start and stop
+            quat[rows] = (attitudes[moving_to - 1] * Rotation.from_rotvec(np.outer(s, turn))).as_quat()
+            rate_body[rows] = np.outer(30 * tau ** 2 * (1 - tau) ** 2 / duration, turn)
+        start += duration
+    force = Rotation.from_quat(quat).inv().apply([0.0, 0.0, G])
+    Ha, Hg = np.eye(3) + rng.normal(0, 0.01, (3, 3)), np.eye(3) + rng.normal(0, 0.01, (3, 3))
+    accel = np.linalg.solve(Ha, force.T).T + rng.normal(0, 0.1, 3) + rng.normal(0, 0.01, (len(t), 3))
+    gyro = np.linalg.solve(Hg, rate_body.T).T + rng.normal(0, 0.01, 3) + rng.normal(0, 0.003, (len(t), 3))
+    return {"t": t, "accel": accel, "gyro": gyro, "pose": pose, "Hg": Hg}
+
+
+def write_csv(path: Path, rec: dict, rows: np.ndarray | None = None) -> Path:
+    data = np.column_stack([rec["t"], rec["accel"], rec["gyro"]])
+    if rows is not None:
+        data = data[rows]
+    with open(path, "w") as f:
+        f.write("time,ax,ay,az,gx,gy,gz\n")
+        np.savetxt(f, data, fmt=["%.4f"] + ["%.6f"] * 6, delimiter=",")
+    return path
+
+
+def rig(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run([*RIG, *args], capture_output=True, text=True, timeout=timeout)
+
+
+def one_clear_line(done: subprocess.CompletedProcess) -> str:
+    err = done.stderr.strip()
+    assert "Traceback" not in err and len(err.splitlines()) == 1, err
+    return err
+
+
+def imported(tmp_path: Path, csv: Path, *extra: str) -> Path:
+    done = rig("import", "csv", str(csv), *COLUMNS, *SI, "--gravity", str(G), "--out", str(tmp_path / "s"), *extra)
+    assert done.returncode == 0, done.stderr
+    return tmp_path / "s"
+
+
+def test_rig_noise_names_a_stuck_axis_of_a_static_log(tmp_path):
+    """Ten minutes of a still unit whose gyro z never changes (a stuck or disconnected axis): its Allan deviation is
+    zero at every tau; `rig noise` crashed indexing the empty curve (exit 70). It must name the axis, exit 2."""
+    rec = recording(1, poses=1, rest_s=600.0)
+    rec["gyro"][:, 2] = 0.002
+    folder = imported(tmp_path, write_csv(tmp_path / "still.csv", rec))
+    done = rig("noise", str(folder))
+    assert done.returncode == 2, (done.returncode, done.stderr)
+    assert "gyro.z: the same value" in one_clear_line(done) and "a stuck axis" in done.stderr
