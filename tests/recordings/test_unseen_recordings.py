@@ -87,3 +87,24 @@ def test_rig_noise_names_a_stuck_axis_of_a_static_log(tmp_path):
     done = rig("noise", str(folder))
     assert done.returncode == 2, (done.returncode, done.stderr)
     assert "gyro.z: the same value" in one_clear_line(done) and "a stuck axis" in done.stderr
+
+
+def test_a_stuck_axis_is_named_not_calibrated(tmp_path):
+    """Fourteen poses whose gyro y never changes: `rig calibrate --from` wrote a gyro H whose y column stayed at its
+    start (1.8 on the diagonal, 'standard deviation' 0) and exited 0; with the accelerometer's x stuck it blamed the
+    gyro (det(H) = 0) and `rig discrepancy` went on to name effects in it (exit 0). Both must name the column."""
+    rec = recording(2)
+    rec["gyro"][:, 1] = 0.0123
+    folder = imported(tmp_path, write_csv(tmp_path / "stuck.csv", rec))
+    done = rig("calibrate", "--from", str(folder), "--out", str(tmp_path / "cal"), "--no-progress")
+    assert done.returncode == 3, (done.returncode, done.stdout, done.stderr)
+    assert "gyro.y (column 'gy') holds the same value" in one_clear_line(done)
+    assert not (tmp_path / "cal" / "calibration.json").exists()
+
+    rec = recording(3)
+    rec["accel"][:, 0] = 0.37
+    folder = imported(tmp_path / "a", write_csv(tmp_path / "stuck_accel.csv", rec))
+    done = rig("discrepancy", str(folder), "--json", str(tmp_path / "d.json"), "--replicas", "10")
+    assert done.returncode == 3, (done.returncode, done.stdout, done.stderr)
+    err = one_clear_line(done)
+    assert "accel.x (column 'ax') holds the same value" in err and err.count(str(folder)) == 1, err
