@@ -24,6 +24,7 @@ from rig.calibration.recording_fits import (
 )
 from rig.calibration.result import TriadCalibration
 from rig.calibration.turntable_free import (
+    GAP_FACTOR,
     SAMPLES_PER_INTERVAL,
     calibrate_turntable_free,
     fit_accel_upper,
@@ -33,7 +34,6 @@ from rig.session_data import MoveStream, SessionData
 
 DEFAULT_TILT_SD_DEG = 2.0
 DEFAULT_TURN_SD_DEG = 2.0
-GAP_FACTOR = 5.0          # a motion whose samples have a gap longer than this many sample periods is not whole
 
 
 @dataclass
@@ -275,10 +275,13 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
                                "gyroscope (imu_tk's turntable-free method)")
     accel, gyro = session.raw["accel"], session.raw["gyro"]
     rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
-    sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity)
+    try:
+        sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity)
+    except (CalibrationError, ValueError) as exc:       # name the recording, as every other refusal here does
+        raise CalibrationError(f"{session.source}: {exc}") from None
     intervals = sensors["accel"].extra["intervals"]
     index = np.flatnonzero(rows)
     poses = [Pose(f"static {k}", index[a:b + 1], None, DEFAULT_TILT_SD_DEG) for k, (a, b) in enumerate(intervals)]
-    return RecordingCalibration(dict(sensors), poses, [], [(i, i + 1) for i in range(len(poses) - 1)],
+    return RecordingCalibration(dict(sensors), poses, [], [(i, i + 1) for i in sensors["gyro"].extra["whole_motions"]],
                                 ["no segments: static intervals detected in the data (imu_tk's turntable-free "
                                  "method; the record must start with a long rest)"])

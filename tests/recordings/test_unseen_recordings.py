@@ -108,3 +108,26 @@ def test_a_stuck_axis_is_named_not_calibrated(tmp_path):
     assert done.returncode == 3, (done.returncode, done.stdout, done.stderr)
     err = one_clear_line(done)
     assert "accel.x (column 'ax') holds the same value" in err and err.count(str(folder)) == 1, err
+
+
+def test_a_log_paused_between_poses_is_not_given_a_gyro_calibration(tmp_path):
+    """A logger that records only while the unit rests (the motions between poses are not in the file): the
+    turntable-free gyro fit integrated across the gaps and wrote an H hundreds of times too large, exit 0. With no
+    motion recorded whole there is nothing to fit H to: one line naming the recording, exit 3. With some motions
+    cut, the gyro is fitted to the whole ones and comes out right."""
+    rec = recording(4, poses=16)
+    folder = imported(tmp_path, write_csv(tmp_path / "paused.csv", rec, rows=rec["pose"] >= 0))
+    done = rig("calibrate", "--from", str(folder), "--out", str(tmp_path / "cal"), "--no-progress")
+    assert done.returncode == 3, (done.returncode, done.stdout, done.stderr)
+    err = one_clear_line(done)
+    assert str(folder) in err and "recorded whole" in err, err
+
+    left = np.maximum.accumulate(np.where(rec["pose"] >= 0, rec["pose"], -1))     # the pose a motion row leaves
+    cut = (rec["pose"] < 0) & np.isin(left, [3, 8])                                 # two motions not logged
+    folder = imported(tmp_path / "b", write_csv(tmp_path / "two_cut.csv", rec, rows=~cut))
+    done = rig("calibrate", "--from", str(folder), "--out", str(tmp_path / "cal2"), "--no-progress")
+    assert done.returncode == 0, (done.returncode, done.stdout, done.stderr)
+    assert "2 of 15 motions between the rests have a gap" in done.stdout, done.stdout
+    H = np.array(json.loads((tmp_path / "cal2" / "calibration.json").read_text())["sensors"]["gyro"]["H"])
+    # the accelerometer's frame is the calibrated one (imu_tk's convention): compare the gyro's scale, not its axes
+    assert np.allclose(np.linalg.svd(H @ np.linalg.inv(rec["Hg"]), compute_uv=False), 1.0, atol=0.01)
