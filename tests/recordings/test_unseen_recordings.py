@@ -131,3 +131,33 @@ def test_a_log_paused_between_poses_is_not_given_a_gyro_calibration(tmp_path):
     H = np.array(json.loads((tmp_path / "cal2" / "calibration.json").read_text())["sensors"]["gyro"]["H"])
     # the accelerometer's frame is the calibrated one (imu_tk's convention): compare the gyro's scale, not its axes
     assert np.allclose(np.linalg.svd(H @ np.linalg.inv(rec["Hg"]), compute_uv=False), 1.0, atol=0.01)
+
+
+def test_a_half_empty_sample_is_refused_at_the_line_of_the_users_file(tmp_path):
+    """One gyro cell left empty (a logger that dropped a field): `rig import csv` wrote a session that every command
+    then refused, naming a line of a samples.csv the user never wrote. The import must name the user's file, line
+    and column, exit 2; a magnetometer present on every other row only (all three cells empty) still imports."""
+    rec = recording(5, poses=3, rest_s=5.0)
+    csv = write_csv(tmp_path / "holes.csv", rec)
+    lines = csv.read_text().splitlines()
+    cells = lines[40].split(",")
+    cells[4] = ""                                                   # gx of the 40th sample, file line 41
+    lines[40] = ",".join(cells)
+    csv.write_text("\n".join(lines) + "\n")
+    done = rig("import", "csv", str(csv), *COLUMNS, *SI, "--out", str(tmp_path / "s"))
+    assert done.returncode == 2, (done.returncode, done.stdout, done.stderr)
+    err = one_clear_line(done)
+    assert f"{csv}, line 41, column 'gx'" in err, err
+    assert not (tmp_path / "s" / "samples.csv").exists()
+
+    data = np.column_stack([rec["t"], rec["accel"], rec["gyro"], rec["accel"] * 5.0])
+    text = ["time,ax,ay,az,gx,gy,gz,mx,my,mz"]
+    for k, row in enumerate(data):
+        cells = [f"{v:.6f}" for v in row]
+        text.append(",".join(cells[:7] + (["", "", ""] if k % 2 else cells[7:])))
+    (tmp_path / "mag.csv").write_text("\n".join(text) + "\n")
+    done = rig("import", "csv", str(tmp_path / "mag.csv"), *COLUMNS, "--mag", "mx,my,mz", "--field-uT", "48",
+               "--units", "accel=m/s^2,gyro=rad/s,mag=uT", "--out", str(tmp_path / "m"))
+    assert done.returncode == 0, done.stderr
+    done = rig("noise", str(tmp_path / "m"))                       # reads the session back (not still: exit 2)
+    assert done.returncode == 2 and "is not still" in one_clear_line(done), done.stderr
