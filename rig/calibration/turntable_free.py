@@ -23,7 +23,14 @@ from rig.calibration.ellipsoid import fit_ellipsoid
 from rig.calibration.levenberg import minimise
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats, scalar_search
 from rig.calibration.result import TriadCalibration
-from rig.calibration.static_detect import detect_static_intervals, first_samples, initial_interval, long_intervals
+from rig.calibration.static_detect import (
+    detect_static_intervals,
+    first_samples,
+    initial_interval,
+    long_intervals,
+    moving_variance_norm,
+    window_samples,
+)
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream
 
@@ -76,6 +83,16 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
             best = {"k": k, "chunks": chunks, "intervals": long_intervals(intervals, SAMPLES_PER_INTERVAL),
                     "B": B, "H": H, "cost": cost}
     if best is None:
+        n0 = initial_interval(t, init_static_s)
+        quiet = np.nanpercentile(moving_variance_norm(accel_raw, window_samples(t, window_s)), 10) \
+            if len(t) > window_samples(t, window_s) else np.nan
+        if np.linalg.norm(accel_raw[:n0].var(axis=0, ddof=1)) > 100 * quiet:
+            # The thresholds are k times the variance of the first init_static_s: a record whose rest is shorter
+            # moves inside that span, every window is 'static' and the poses merge into one; the count of
+            # intervals then blames poses a user did record.
+            raise CalibrationError(f"turntable-free: the first {init_static_s:g} s are not at rest (the unit moves "
+                                   "in them); imu_tk's method takes its static threshold and the gyro bias from an "
+                                   f"initial rest of {init_static_s:g} s, so record one before the first pose")
         raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals for every k in "
                                f"{list(k_values)}; record more poses held for >= {SAMPLES_PER_INTERVAL} samples")
 

@@ -161,3 +161,13 @@ def test_a_half_empty_sample_is_refused_at_the_line_of_the_users_file(tmp_path):
     assert done.returncode == 0, done.stderr
     done = rig("noise", str(tmp_path / "m"))                       # reads the session back (not still: exit 2)
     assert done.returncode == 2 and "is not still" in one_clear_line(done), done.stderr
+
+
+def test_a_rest_shorter_than_imu_tks_is_named_as_the_reason(tmp_path):
+    """Sixteen poses after an 8 s rest (imu_tk's method wants 50 s): the threshold taken over a span that moves
+    merged every pose into one, and the refusal asked for more poses than the sixteen recorded. It must name the
+    rest instead (a limitation of the method: one line, no result)."""
+    folder = imported(tmp_path, write_csv(tmp_path / "short_rest.csv", recording(6, poses=16, rest_s=8.0)))
+    done = rig("calibrate", "--from", str(folder), "--out", str(tmp_path / "cal"), "--no-progress")
+    assert done.returncode == 3, (done.returncode, done.stdout, done.stderr)
+    assert "the first 50 s are not at rest" in one_clear_line(done)
