@@ -149,8 +149,8 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
         raise CalibrationError(f"turntable-free gyro: none of the {len(intervals) - 1} motions between the rests was "
                                f"recorded whole (each has a gap of more than {GAP_FACTOR:g} sample periods); the "
                                "gyro's H needs the motions between the poses")
-    moves = [MoveStream(k, t[intervals[i][1]:intervals[i + 1][0] + 1], gyro_raw[intervals[i][1]:intervals[i + 1][0] + 1],
-                        np.eye(3), np.eye(3)) for k, i in enumerate(whole)]
+    spans = [slice(intervals[i][1], intervals[i + 1][0] + 1) for i in whole]
+    moves = [MoveStream(k, t[span], gyro_raw[span], np.eye(3), np.eye(3)) for k, span in enumerate(spans)]
     ms = MoveSet.build(moves, B)
     g0, g1 = g[whole], g[[i + 1 for i in whole]]
 
