@@ -89,7 +89,10 @@ def command_error(exc: BaseException, prefix: str = "") -> CommandError:
     """`exc` as a CommandError with its message (plain numbers, not numpy reprs) and its exit code."""
     if isinstance(exc, OSError) and exc.strerror:
         return CommandError(prefix + (f"{exc.filename}: " if exc.filename else "") + exc.strerror, code_for(exc))
-    return CommandError(prefix + plain(str(exc)), code_for(exc))
+    message = plain(str(exc))
+    if prefix and message.startswith(prefix):          # the error already names the folder (session.source)
+        prefix = ""
+    return CommandError(prefix + message, code_for(exc))
 
 
 def plain(text: str) -> str:

@@ -24,6 +24,7 @@ from rig.calibration.recording_fits import (
 )
 from rig.calibration.result import TriadCalibration
 from rig.calibration.turntable_free import (
+    GAP_FACTOR,
     SAMPLES_PER_INTERVAL,
     calibrate_turntable_free,
     fit_accel_upper,
@@ -33,7 +34,6 @@ from rig.session_data import MoveStream, SessionData
 
 DEFAULT_TILT_SD_DEG = 2.0
 DEFAULT_TURN_SD_DEG = 2.0
-GAP_FACTOR = 5.0          # a motion whose samples have a gap longer than this many sample periods is not whole
 
 
 @dataclass
@@ -94,6 +94,7 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
     gyro_start: where the gyro's fit starts instead of its own coarse search (a twin's replica starts at its
     recording's H: the same optimum, to 1e-10, in a third less time).
     """
+    check_no_stuck_axis(session)
     poses, turns = segments_of(session)
     if not poses:
         return _turntable_free(session)
@@ -112,6 +113,23 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
         if not used["turns"] and not used["carries"]:
             warnings.append("gyro: no turn of known angle and no whole motion between poses")
     return RecordingCalibration(sensors, poses, turns, carries, warnings)
+
+
+def check_no_stuck_axis(session: SessionData) -> None:
+    """Refuse a sensor axis that holds one value on every row (stuck, disconnected, or a column of zeros).
+
+    Nothing calibrates it: the fits left its column of H where they started (a gyro's at 1.8 with a standard
+    deviation of 0, an accelerometer's turned into a det(H) = 0 gyro error), and exited 0 with a warning about
+    rests or went on to name effects in it. The column is named as the imported file calls it.
+    """
+    names = (session.meta.get("imported") or {}).get("columns") or {}
+    for sensor, y in session.raw.items():
+        for k in range(y.shape[1]):
+            v = y[:, k][~np.isnan(y[:, k])]
+            if len(v) > 1 and np.ptp(v) == 0:
+                column = names.get(sensor, session.columns.get(sensor, "xyz"))[k]
+                raise CalibrationError(f"{session.source}: {sensor}.{'xyz'[k]} (column '{column}') holds the same "
+                                       f"value {v[0]:g} on all {len(v)} rows: a stuck axis cannot be calibrated")
 
 
 def pose_stats(session: SessionData, sensor: str, poses: list[Pose]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -257,10 +275,13 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
                                "gyroscope (imu_tk's turntable-free method)")
     accel, gyro = session.raw["accel"], session.raw["gyro"]
     rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
-    sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity)
+    try:
+        sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity)
+    except (CalibrationError, ValueError) as exc:       # name the recording, as every other refusal here does
+        raise CalibrationError(f"{session.source}: {exc}") from None
     intervals = sensors["accel"].extra["intervals"]
     index = np.flatnonzero(rows)
     poses = [Pose(f"static {k}", index[a:b + 1], None, DEFAULT_TILT_SD_DEG) for k, (a, b) in enumerate(intervals)]
-    return RecordingCalibration(dict(sensors), poses, [], [(i, i + 1) for i in range(len(poses) - 1)],
+    return RecordingCalibration(dict(sensors), poses, [], [(i, i + 1) for i in sensors["gyro"].extra["whole_motions"]],
                                 ["no segments: static intervals detected in the data (imu_tk's turntable-free "
                                  "method; the record must start with a long rest)"])

@@ -23,7 +23,14 @@ from rig.calibration.ellipsoid import fit_ellipsoid
 from rig.calibration.levenberg import minimise
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats, scalar_search
 from rig.calibration.result import TriadCalibration
-from rig.calibration.static_detect import detect_static_intervals, first_samples, initial_interval, long_intervals
+from rig.calibration.static_detect import (
+    detect_static_intervals,
+    first_samples,
+    initial_interval,
+    long_intervals,
+    moving_variance_norm,
+    window_samples,
+)
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream
 
@@ -31,6 +38,7 @@ MIN_INTERVALS = 12          # imu_tk's minimum number of static intervals
 SAMPLES_PER_INTERVAL = 100  # imu_tk's interval_n_samples
 UPPER = np.triu_indices(3)
 POOR_FIT_UNIT = 0.05        # rms gravity-direction misfit (unit vector components); imu_tk's Xsens fit: 0.012
+GAP_FACTOR = 5.0            # a motion whose samples have a gap longer than this many sample periods is not whole
 
 
 def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, *, gravity: float = 9.80665,
@@ -75,6 +83,16 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
             best = {"k": k, "chunks": chunks, "intervals": long_intervals(intervals, SAMPLES_PER_INTERVAL),
                     "B": B, "H": H, "cost": cost}
     if best is None:
+        n0 = initial_interval(t, init_static_s)
+        quiet = np.nanpercentile(moving_variance_norm(accel_raw, window_samples(t, window_s)), 10) \
+            if len(t) > window_samples(t, window_s) else np.nan
+        if np.linalg.norm(accel_raw[:n0].var(axis=0, ddof=1)) > 100 * quiet:
+            # The thresholds are k times the variance of the first init_static_s: a record whose rest is shorter
+            # moves inside that span, every window is 'static' and the poses merge into one; the count of
+            # intervals then blames poses a user did record.
+            raise CalibrationError(f"turntable-free: the first {init_static_s:g} s are not at rest (the unit moves "
+                                   "in them); imu_tk's method takes its static threshold and the gyro bias from an "
+                                   f"initial rest of {init_static_s:g} s, so record one before the first pose")
         raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals for every k in "
                                f"{list(k_values)}; record more poses held for >= {SAMPLES_PER_INTERVAL} samples")
 
@@ -123,10 +141,18 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
     """Gyro B from the initial rest, H from gravity directions carried across each move."""
     B = gyro_raw[:initial_interval(t, init_static_s)].mean(axis=0)
     g = g_body / np.linalg.norm(g_body, axis=1, keepdims=True)
-    moves = [MoveStream(i, t[a_end:b_start + 1], gyro_raw[a_end:b_start + 1], np.eye(3), np.eye(3))
-             for i, ((_, a_end), (b_start, _)) in enumerate(zip(intervals[:-1], intervals[1:]))]
+    # Only a motion recorded whole carries gravity: a logger paused between poses (or one that lost a stretch of
+    # rows) leaves a motion of a few samples either side of a gap, whose integral says nothing of the rotation;
+    # fitted anyway, such motions gave an H hundreds of times too large with exit 0.
+    whole = whole_motions(t, intervals)
+    if not whole:
+        raise CalibrationError(f"turntable-free gyro: none of the {len(intervals) - 1} motions between the rests was "
+                               f"recorded whole (each has a gap of more than {GAP_FACTOR:g} sample periods); the "
+                               "gyro's H needs the motions between the poses")
+    spans = [slice(intervals[i][1], intervals[i + 1][0] + 1) for i in whole]
+    moves = [MoveStream(k, t[span], gyro_raw[span], np.eye(3), np.eye(3)) for k, span in enumerate(spans)]
     ms = MoveSet.build(moves, B)
-    g0, g1 = g[:-1], g[1:]
+    g0, g1 = g[whole], g[[i + 1 for i in whole]]
 
     def residuals(H: np.ndarray, moveset: MoveSet) -> np.ndarray:
         q = integrated_quats(H, moveset)          # R = R0^T R1 of each move, (..., n, 4)
@@ -141,10 +167,17 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
         return ((r[1:] - r[0]) / step).T
 
     res = minimise(fun, jac, np.eye(3).ravel(), tol=1e-12)
+    rank = int(np.linalg.matrix_rank(res.jac))
+    if rank < 9:
+        raise CalibrationError(f"turntable-free gyro: the {len(moves)} motions between the rests determine only {rank} "
+                               "of H's 9 entries; record more motions between differently oriented poses")
     H = res.x.reshape(3, 3) * s
     r = res.fun
     cov = np.linalg.pinv(res.jac.T @ res.jac) * float(r @ r) / max(r.size - 9, 1) * s * s
     warnings = [] if np.linalg.det(H) > 0 else [f"det(H) = {np.linalg.det(H):.3g} <= 0"]
+    if len(whole) < len(intervals) - 1:
+        warnings.append(f"{len(intervals) - 1 - len(whole)} of {len(intervals) - 1} motions between the rests have a "
+                        "gap in their samples and were left out of the gyro fit")
     rms = float(np.sqrt(np.mean(r * r)))
     if rms > POOR_FIT_UNIT:
         warnings.append(f"the gyro fit does not carry gravity between the rests: rms {rms:.3g} (unit vectors); "
@@ -153,8 +186,16 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
                             residual_rms=rms, iterations=int(res.nfev),
                             converged=bool(res.success), H_std=np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(3, 3),
                             H_cov=cov, warnings=warnings,
-                            extra={"moves": len(moves), "cost": float(0.5 * r @ r),
+                            extra={"moves": len(moves), "whole_motions": whole, "cost": float(0.5 * r @ r),
                                    "residual_unit": "unit gravity vector components"})
+
+
+def whole_motions(t: np.ndarray, intervals: list[tuple[int, int]]) -> list[int]:
+    """Indices i of the motions from rest i to rest i + 1 with no gap longer than GAP_FACTOR median sample
+    periods."""
+    dt = float(np.median(np.diff(t)))
+    return [i for i, ((_, a_end), (b_start, _)) in enumerate(zip(intervals[:-1], intervals[1:]))
+            if np.diff(t[a_end:b_start + 1]).max(initial=0.0) <= GAP_FACTOR * dt]
 
 
 def _rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:

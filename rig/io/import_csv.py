@@ -56,6 +56,18 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
     else:
         t = np.arange(n) / float(rate_hz)
     raw = {s: np.column_stack([cols[c] for c in names]) for s, names in sensors.items()}
+    for sensor, names in sensors.items():
+        # An empty cell is "no sample from that sensor on this row", which is said of all three axes or none: the
+        # session written with a half-empty sample was refused by every command that read it, naming a line of
+        # its samples.csv the user never wrote. Refused here, at the line and column of the user's file.
+        empty = np.isnan(raw[sensor])
+        partial = np.flatnonzero(empty.any(axis=1) & ~empty.all(axis=1))
+        if partial.size:
+            i = int(partial[0])
+            given = ", ".join(n for k, n in enumerate(names) if not empty[i, k])
+            raise SessionFormatError(path, f"empty cell, but the {sensor}'s {given} on this row have a value; a "
+                                     "sample has all three axes or none", i + FIRST_DATA_LINE,
+                                     names[int(np.argmax(empty[i]))])
     lines = np.arange(n) + FIRST_DATA_LINE
     check_counts(raw, units, {s: (str(path), names, lines) for s, names in sensors.items()})
     raw, kept = to_session_units(raw, units)

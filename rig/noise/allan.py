@@ -53,9 +53,16 @@ def allan_deviation(x: np.ndarray, rate_hz: float, *, longest_fraction: float = 
     x = x[np.isfinite(x)]
     if len(x) < 8:
         raise ValueError(f"Allan deviation: {len(x)} samples; at least 8 are needed")
+    if np.ptp(x) == 0:
+        # A stuck axis (or a column that never changes) has no noise to fit: its curve is zero at every tau (and
+        # empty once those are dropped), or rounding leaves a few 1e-20 that read as a unit that is not still.
+        raise ValueError(f"the same value {x[0]:g} on all {len(x)} samples (a stuck axis): no noise to analyse")
     tau, adev, _, n = allantools.oadev(x, rate=float(rate_hz), data_type="freq", taus="octave")
     keep = (tau <= longest_fraction * len(x) / rate_hz + 1e-12) & (adev > 0)
     tau, adev, n = tau[keep], adev[keep], n[keep]
+    if not len(tau):
+        raise ValueError(f"an Allan deviation of zero at every tau up to a third of its {len(x)} samples: no noise "
+                         "to analyse")
     # allantools' error, adev / sqrt(pairs), counts the overlapping pairs as independent: at a third of the
     # stream it is a hundred times too small, and a fit weighted by it heard only the shortest taus (a white
     # gyro "showed" a rate random walk). The chi-square's equivalent degrees of freedom of the overlapping
