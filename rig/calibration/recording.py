@@ -350,7 +350,8 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     accel, gyro = session.raw["accel"], session.raw["gyro"]
     rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
     try:
-        sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity)
+        sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity,
+                                           columns={s: _columns(session, s) for s in ("accel", "gyro")})
     except (CalibrationError, ValueError) as exc:       # name the recording, as every other refusal here does
         raise CalibrationError(f"{session.source}: {exc}") from None
     intervals = sensors["accel"].extra["intervals"]

@@ -44,14 +44,16 @@ GAP_FACTOR = 5.0            # a motion whose samples have a gap longer than this
 
 def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, *, gravity: float = 9.80665,
                              init_static_s: float = 50.0, k_values: range | tuple = range(2, 11),
-                             window_s: float = 1.0) -> dict[str, TriadCalibration]:
+                             window_s: float = 1.0, columns: dict[str, list[str]] | None = None
+                             ) -> dict[str, TriadCalibration]:
     """{'accel': ..., 'gyro': ...} from raw counts of a hand-held multi-position record.
 
     The record must start with `init_static_s` seconds at rest (threshold and gyro bias) and hold
     at least 12 poses for >= 100 samples each. The accelerometer's `extra` holds the chosen k, the
     static intervals kept ("intervals"), the samples fitted ("fit_samples": the first 100 of each, as
     imu_tk) and the whole k sweep; `residual_rms` is | |a| - g | over the fitted samples and
-    `extra["residual_rms_full_intervals"]` over every sample of the intervals.
+    `extra["residual_rms_full_intervals"]` over every sample of the intervals. Poses and motions with a sample
+    at a rail (saturated) are left out, named with the user's `columns` ({'accel': ['ax', 'ay', 'az'], ...}).
     """
     t = np.asarray(t, dtype=float)
     accel_raw, gyro_raw = np.asarray(accel_raw, dtype=float), np.asarray(gyro_raw, dtype=float)
@@ -61,15 +63,16 @@ def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.
         if not np.all(np.isfinite(a)):
             row = int(np.flatnonzero(~np.isfinite(a).all(axis=1))[0])
             raise ValueError(f"turntable-free: {name} contains NaN/inf at row {row}")
-    accel = _accel_sweep(t, accel_raw, gravity, init_static_s, k_values, window_s)
+    columns = columns or {}
+    accel = _accel_sweep(t, accel_raw, gravity, init_static_s, k_values, window_s, columns.get("accel"))
     intervals = [tuple(c) for c in accel.extra["intervals"]]
     g_body = accel.apply(np.array([accel_raw[a:b + 1].mean(axis=0) for a, b in intervals]))
-    gyro = calibrate_gyro_gravity(t, gyro_raw, g_body, intervals, init_static_s)
+    gyro = calibrate_gyro_gravity(t, gyro_raw, g_body, intervals, init_static_s, columns.get("gyro"))
     return {"accel": accel, "gyro": gyro}
 
 
 def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_static_s: float, k_values,
-                 window_s: float) -> TriadCalibration:
+                 window_s: float, columns: list[str] | None = None) -> TriadCalibration:
     """imu_tk's threshold sweep: detect, fit, keep the k with the least cost."""
     best, sweep = None, []
     found = rails(accel_raw)
@@ -102,7 +105,7 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
         if saturated:
             raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals left for every k in "
                                    f"{list(k_values)} once the {saturated} with a saturated accelerometer are left "
-                                   f"out ({rail_names('accel', found)}); record the poses within its range")
+                                   f"out ({rail_names('accel', found, columns)}); record the poses within its range")
         raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals for every k in "
                                f"{list(k_values)}; record more poses held for >= {SAMPLES_PER_INTERVAL} samples")
 
@@ -111,7 +114,7 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
         norm = np.linalg.norm((accel_raw[idx] - best["B"]) @ best["H"].T, axis=1)
         return float(np.sqrt(np.mean((gravity - norm) ** 2)))
 
-    warnings = [f"{rail_names('accel', found)}: {best['saturated']} of "
+    warnings = [f"{rail_names('accel', found, columns)}: {best['saturated']} of "
                 f"{best['saturated'] + len(best['intervals'])} static intervals read a sample at a rail and were left "
                 "out of the fit "
                 "(saturated: the pose's gravity beyond the range)"] if best["saturated"] else []
@@ -162,7 +165,7 @@ def fit_accel_upper(chunks: list[np.ndarray], gravity: float) -> tuple[np.ndarra
 
 
 def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarray, intervals: list[tuple[int, int]],
-                           init_static_s: float) -> TriadCalibration:
+                           init_static_s: float, columns: list[str] | None = None) -> TriadCalibration:
     """Gyro B from the initial rest, H from gravity directions carried across each move."""
     B = gyro_raw[:initial_interval(t, init_static_s)].mean(axis=0)
     g = g_body / np.linalg.norm(g_body, axis=1, keepdims=True)
@@ -175,10 +178,11 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
                                f"recorded whole (each has a gap of more than {GAP_FACTOR:g} sample periods); the "
                                "gyro's H needs the motions between the poses")
     whole, clipped, found = unclipped_motions(gyro_raw, intervals, whole)
+    rail = rail_names("gyro", found, columns)
     if not whole:
         raise CalibrationError(f"turntable-free gyro: every one of the {len(clipped)} motions between the rests "
-                               f"recorded whole reads a gyro sample at its rail ({rail_names('gyro', found)}): "
-                               "saturated, its rate beyond the range is lost; move slower or set a larger range")
+                               f"recorded whole reads a gyro sample at its rail ({rail}): saturated, its rate beyond "
+                               "the range is lost; move slower or set a larger range")
     spans = [slice(intervals[i][1], intervals[i + 1][0] + 1) for i in whole]
     moves = [MoveStream(k, t[span], gyro_raw[span], np.eye(3), np.eye(3)) for k, span in enumerate(spans)]
     ms = MoveSet.build(moves, B)
@@ -199,7 +203,7 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
     res = minimise(fun, jac, np.eye(3).ravel(), tol=1e-12)
     rank = int(np.linalg.matrix_rank(res.jac))
     if rank < 9:
-        left = (f" ({len(clipped)} more were left out: {rail_names('gyro', found)}, saturated)" if clipped else "")
+        left = f" ({len(clipped)} more were left out: {rail}, saturated)" if clipped else ""
         raise CalibrationError(f"turntable-free gyro: the {len(moves)} motions between the rests determine only {rank} "
                                f"of H's 9 entries{left}; record more motions between differently oriented poses")
     H = res.x.reshape(3, 3) * s
@@ -210,9 +214,8 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
         warnings.append(f"{len(intervals) - 1 - len(whole) - len(clipped)} of {len(intervals) - 1} motions between "
                         "the rests have a gap in their samples and were left out of the gyro fit")
     if clipped:
-        warnings.append(f"{rail_names('gyro', found)}: {len(clipped)} of {len(clipped) + len(whole)} motions between "
-                        "the rests read a sample at a rail and were left out of the fit (saturated: the rate beyond the "
-                        "range is lost)")
+        warnings.append(f"{rail}: {len(clipped)} of {len(clipped) + len(whole)} motions between the rests read a "
+                        "sample at a rail and were left out of the fit (saturated: the rate beyond the range is lost)")
     rms = float(np.sqrt(np.mean(r * r)))
     if rms > POOR_FIT_UNIT:
         warnings.append(f"the gyro fit does not carry gravity between the rests: rms {rms:.3g} (unit vectors); "
