@@ -9,6 +9,7 @@ calibration predicts for data it did not see (held-out prediction).
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,6 +24,7 @@ from rig.calibration.recording_fits import (
     turn_angle,
 )
 from rig.calibration.result import TriadCalibration
+from rig.calibration.saturation import Rail, pinned_rows, rail_names, rails
 from rig.calibration.turntable_free import (
     GAP_FACTOR,
     SAMPLES_PER_INTERVAL,
@@ -98,21 +100,93 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
     poses, turns = segments_of(session)
     if not poses:
         return _turntable_free(session)
-    leave_out = leave_out or {}
-    use_poses = [p for i, p in enumerate(poses) if i not in set(leave_out.get("poses", ()))]
-    sensors, warnings = {}, []
     if "accel" not in session.raw:
         raise CalibrationError(f"{session.source}: a recording needs its accelerometer for the static poses")
-    sensors["accel"] = _vector_fit(session, "accel", use_poses, session.gravity)
-    if "mag" in session.raw and session.field_uT:
-        sensors["mag"] = _vector_fit(session, "mag", use_poses, float(session.field_uT))
+    poses, saturated = unsaturated_poses(session, poses)
+    if not poses:
+        raise CalibrationError(f"{session.source}: no static pose is left once {'; '.join(w for _, w in saturated)}")
+    leave_out = leave_out or {}
+    use_poses = [p for i, p in enumerate(poses) if i not in set(leave_out.get("poses", ()))]
+    sensors, warnings = {}, [w for w, _ in saturated]
+    with refused_for_saturation(session, [why for _, why in saturated]):
+        sensors["accel"] = _vector_fit(session, "accel", use_poses, session.gravity)
+        if "mag" in session.raw and session.field_uT:
+            sensors["mag"] = _vector_fit(session, "mag", use_poses, float(session.field_uT))
     carries = _carries(session, poses)
     if "gyro" in session.raw:
-        sensors["gyro"], used = fit_gyro(session, sensors["accel"], poses, turns, carries, leave_out,
-                                         carry_sd, gyro_start)
+        turns, carries, clipped = unclipped_turns_and_motions(session, poses, turns, carries)
+        warnings += [w for w, _ in clipped]
+        with refused_for_saturation(session, [why for _, why in clipped]):
+            sensors["gyro"], used = fit_gyro(session, sensors["accel"], poses, turns, carries, leave_out,
+                                             carry_sd, gyro_start)
         if not used["turns"] and not used["carries"]:
             warnings.append("gyro: no turn of known angle and no whole motion between poses")
     return RecordingCalibration(sensors, poses, turns, carries, warnings)
+
+
+def unsaturated_poses(session: SessionData, poses: list[Pose]) -> tuple[list[Pose], list[tuple[str, str]]]:
+    """The poses with no accelerometer or magnetometer sample at a rail, and (warning, reason) for each sensor
+    that had some: a clipped pose reads less than the vector (an axis at 8 m/s^2 where gravity along it gives
+    9.8), which the fit would take for scale and offset. The motions either side of a left-out pose join into
+    one (`_carries`), which still carries gravity from the pose before it to the next."""
+    out = []
+    for sensor in ("accel", "mag"):
+        found, hit = _rails_of(session, sensor)
+        spoiled = [p.name for p in poses if hit is not None and hit[p.rows].any()]
+        if spoiled:
+            kept = [p for p in poses if not hit[p.rows].any()]
+            names = rail_names(sensor, found, _columns(session, sensor))
+            out.append((f"{sensor}: {names}: {len(spoiled)} of {len(poses)} poses read a sample at a rail and were "
+                        f"left out ({', '.join(spoiled)}; saturated: the pose's {sensor} beyond the range)",
+                        f"{len(spoiled)} poses with {names} are left out (saturated)"))
+            poses = kept
+    return poses, out
+
+
+def unclipped_turns_and_motions(session: SessionData, poses: list[Pose], turns: list[Turn],
+                                carries: list[tuple[int, int]]) -> tuple[list[Turn], list[tuple[int, int]],
+                                                                          list[tuple[str, str]]]:
+    """The turns and motions between poses with no gyro sample at a rail, and (warning, reason) if some had one:
+    a clipped rate sums to less than the turn, and a fit to it anyway scales H (a gyro clipped at 250 deg/s in
+    hand motions came out 20 % off)."""
+    found, hit = _rails_of(session, "gyro")
+    if hit is None:
+        return turns, carries, []
+    bad_turns = [k for k, t in enumerate(turns) if hit[t.rows].any()]
+    bad_carries = [c for c, (i, j) in enumerate(carries) if hit[poses[i].rows[-1]:poses[j].rows[0] + 1].any()]
+    if not bad_turns and not bad_carries:
+        return turns, carries, []
+    names = rail_names("gyro", found, _columns(session, "gyro"))
+    left = f"{len(bad_turns)} of {len(turns)} turns and {len(bad_carries)} of {len(carries)} motions between poses"
+    return ([t for k, t in enumerate(turns) if k not in bad_turns],
+            [ij for c, ij in enumerate(carries) if c not in bad_carries],
+            [(f"gyro: {names}: {left} read a sample at a rail and were left out (saturated: the rate beyond the "
+              "range is lost)", f"{left} with {names} are left out (saturated)")])
+
+
+def _rails_of(session: SessionData, sensor: str) -> tuple[list[Rail], np.ndarray | None]:
+    """A sensor's rails and the rows that read one (None without either)."""
+    if sensor not in session.raw:
+        return [], None
+    found = rails(session.raw[sensor])
+    return found, (pinned_rows(session.raw[sensor], found) if found else None)
+
+
+def _columns(session: SessionData, sensor: str) -> list[str] | None:
+    """The sensor's columns as the imported file calls them (None for a session the rig recorded)."""
+    return ((session.meta.get("imported") or {}).get("columns") or {}).get(sensor)
+
+
+@contextmanager
+def refused_for_saturation(session: SessionData, reasons: list[str]):
+    """A fit that cannot be made from what saturation left is refused naming the recording and the saturation,
+    in one line: the fit's own reason ('3 poses ... need at least 9') would blame poses the user did record."""
+    try:
+        yield
+    except CalibrationError as exc:
+        if not reasons:
+            raise
+        raise CalibrationError(f"{session.source}: {exc}, once {'; '.join(reasons)}") from None
 
 
 def check_no_stuck_axis(session: SessionData) -> None:
@@ -276,7 +350,8 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     accel, gyro = session.raw["accel"], session.raw["gyro"]
     rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
     try:
-        sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity)
+        sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity,
+                                           columns={s: _columns(session, s) for s in ("accel", "gyro")})
     except (CalibrationError, ValueError) as exc:       # name the recording, as every other refusal here does
         raise CalibrationError(f"{session.source}: {exc}") from None
     intervals = sensors["accel"].extra["intervals"]

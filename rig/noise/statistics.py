@@ -14,6 +14,7 @@ import numpy as np
 
 from rig.calibration.recording import RecordingCalibration, pose_stats
 from rig.calibration.recording_fits import fit_faces
+from rig.calibration.saturation import distinct as _distinct, pinned_ends
 from rig.errors import CalibrationError
 from rig.noise.allan import allan_deviation
 from rig.session_data import SessionData
@@ -111,19 +112,6 @@ def pinned_fraction(x: np.ndarray) -> float:
     return _pinned(*_distinct(x))
 
 
-def _distinct(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The finite values of x, sorted and distinct, and how often each occurs (np.unique's answer; counted without
-    a sort where the values are whole numbers of a modest range, as a recording in counts has, ten times faster)."""
-    x = x[np.isfinite(x)]
-    if x.size:
-        lo, hi = float(x.min()), float(x.max())
-        if hi - lo <= max(4 * x.size, 1024) and abs(lo) < 2 ** 52 and abs(hi) < 2 ** 52 and np.all(x == np.floor(x)):
-            counts = np.bincount((x - lo).astype(np.int64))
-            present = np.flatnonzero(counts)
-            return present + lo, counts[present]
-    return np.unique(x, return_counts=True)
-
-
 def _step(u: np.ndarray) -> float:
     if len(u) < 3:
         return 0.0
@@ -132,11 +120,13 @@ def _step(u: np.ndarray) -> float:
 
 
 def _pinned(u: np.ndarray, n: np.ndarray) -> float:
+    """Share of the samples at an extreme that `saturation.pinned_ends` calls piled up (the calibration leaves out
+    what touched it; one definition for both)."""
     size = int(n.sum())
     if size < 3 or len(u) < 3:
         return 0.0
-    piled = (n[0] if n[0] > n[1] and n[0] > 2 else 0) + (n[-1] if n[-1] > n[-2] and n[-1] > 2 else 0)
-    return float(piled / size)
+    low, high = pinned_ends(u, n)
+    return float(((n[0] if low else 0) + (n[-1] if high else 0)) / size)
 
 
 def loo_scatter_ratio(session: SessionData, rec: RecordingCalibration) -> float | None:
