@@ -299,8 +299,9 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
         raise CalibrationError(f"gyro: the turns and motions left in the fit determine only {info['rank']} of H's 9 "
                                "entries")
     angle_err = [np.degrees(turn_angle(H, summed_rate(session, t.rows, B), t.axis) - t.angle_rad) for t in turns]
-    carry_err = np.degrees(carried_errors(H, B, streams, g[[i for i, _ in carries]], g[[j for _, j in carries]])
-                           ).tolist() if carries else []
+    fitted = info["moveset"] if not skip_carries else None          # the fit's motions are all of them
+    carry_err = np.degrees(carried_errors(H, B, streams, g[[i for i, _ in carries]], g[[j for _, j in carries]],
+                                          fitted)).tolist() if carries else []
     resid = np.radians(np.r_[angle_err, carry_err])
     cal = TriadCalibration(
         B=B, H=H, method="recording-turns (known turns and gravity carried between poses)",

@@ -192,7 +192,8 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
     dof = max(J.shape[0] - 9, 1)
     chi2 = float(res.fun @ res.fun) / dof
     cov = np.linalg.pinv(J.T @ J) * (chi2 if carry_sd != CARRY_SD else max(chi2, 1.0)) * scale * scale
-    return H, cov, {"converged": bool(res.success), "iterations": int(res.nfev), "rank": int(np.linalg.matrix_rank(J))}
+    return H, cov, {"converged": bool(res.success), "iterations": int(res.nfev), "rank": int(np.linalg.matrix_rank(J)),
+                    "moveset": ms}
 
 
 def carry_sd_by_cross_validation(B: np.ndarray, turns: list, carries: list, H0: np.ndarray) -> float:
@@ -232,11 +233,13 @@ def turn_angle(H: np.ndarray, m: np.ndarray, axis: np.ndarray) -> float:
     return float((H @ m) @ axis)
 
 
-def carried_errors(H: np.ndarray, B: np.ndarray, streams: list[MoveStream], g0: np.ndarray, g1: np.ndarray) -> np.ndarray:
-    """Angles (rad) between the gravity directions carried across motions by H and those measured after them."""
+def carried_errors(H: np.ndarray, B: np.ndarray, streams: list[MoveStream], g0: np.ndarray, g1: np.ndarray,
+                   moveset: MoveSet | None = None) -> np.ndarray:
+    """Angles (rad) between the gravity directions carried across motions by H and those measured after them;
+    `moveset`: the streams already built with B (a fit's own), which is most of the cost."""
     if not streams:
         return np.zeros(0)
-    q = integrated_quats(H, MoveSet.build(streams, B))
+    q = integrated_quats(H, moveset if moveset is not None else MoveSet.build(streams, B))
     v = _rotate_inverse(q, np.asarray(g0))
     cos = np.einsum("ij,ij->i", v, np.asarray(g1)) / np.linalg.norm(v, axis=1)
     return np.arccos(np.clip(cos, -1.0, 1.0))
