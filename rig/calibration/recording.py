@@ -9,13 +9,18 @@ calibration predicts for data it did not see (held-out prediction).
 
 from __future__ import annotations
 
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from rig.calibration.recording_checks import (
+    check_no_stuck_axis,
+    imported_columns,
+    refused_for_saturation,
+    unclipped_turns_and_motions,
+    unsaturated_poses,
+)
 from rig.calibration.recording_fits import (
-    AXIS_VECTORS,
     CARRY_SD,
     carried_errors,
     carry_sd_by_cross_validation,
@@ -24,7 +29,7 @@ from rig.calibration.recording_fits import (
     turn_angle,
 )
 from rig.calibration.result import TriadCalibration
-from rig.calibration.saturation import Rail, pinned_rows, rail_names, rails
+from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.turntable_free import (
     GAP_FACTOR,
     SAMPLES_PER_INTERVAL,
@@ -33,27 +38,6 @@ from rig.calibration.turntable_free import (
 )
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream, SessionData
-
-DEFAULT_TILT_SD_DEG = 2.0
-DEFAULT_TURN_SD_DEG = 2.0
-
-
-@dataclass
-class Pose:
-    name: str
-    rows: np.ndarray          # indices of the pose's samples
-    up: str | None
-    tilt_sd_deg: float
-
-
-@dataclass
-class Turn:
-    name: str
-    rows: np.ndarray
-    axis: np.ndarray          # nominal unit axis, sensor frame
-    angle_rad: float
-    angle_sd_rad: float
-    axis_sd_rad: float
 
 
 @dataclass
@@ -65,25 +49,6 @@ class RecordingCalibration:
     turns: list[Turn]
     carries: list[tuple[int, int]]                 # (pose index, next pose index) whose motion carried gravity
     warnings: list[str] = field(default_factory=list)
-
-
-def segments_of(session: SessionData) -> tuple[list[Pose], list[Turn]]:
-    """The static poses and turns the session's segments name, in time order."""
-    poses, turns = [], []
-    tilts = [s.get("tilt_deg_sd", DEFAULT_TILT_SD_DEG) for s in session.meta.get("segments") or []
-             if s["kind"] == "static"]
-    axis_sd = np.radians(max(tilts) if tilts else DEFAULT_TILT_SD_DEG)
-    for seg in session.meta.get("segments") or []:
-        rows = np.flatnonzero((session.t >= seg["t0"]) & (session.t <= seg["t1"]))
-        if rows.size < 2:
-            continue
-        if seg["kind"] == "static":
-            poses.append(Pose(seg["name"], rows, seg.get("up"), float(seg.get("tilt_deg_sd", DEFAULT_TILT_SD_DEG))))
-        else:
-            turns.append(Turn(seg["name"], rows, np.array(AXIS_VECTORS[seg["axis"]], dtype=float),
-                              float(np.radians(seg["angle_deg"])),
-                              float(np.radians(seg.get("angle_deg_sd", DEFAULT_TURN_SD_DEG))), float(axis_sd)))
-    return poses, turns
 
 
 def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
@@ -122,88 +87,6 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
         if not used["turns"] and not used["carries"]:
             warnings.append("gyro: no turn of known angle and no whole motion between poses")
     return RecordingCalibration(sensors, poses, turns, carries, warnings)
-
-
-def unsaturated_poses(session: SessionData, poses: list[Pose]) -> tuple[list[Pose], list[tuple[str, str]]]:
-    """The poses with no accelerometer or magnetometer sample at a rail, and (warning, reason) for each sensor
-    that had some: a clipped pose reads less than the vector (an axis at 8 m/s^2 where gravity along it gives
-    9.8), which the fit would take for scale and offset. The motions either side of a left-out pose join into
-    one (`_carries`), which still carries gravity from the pose before it to the next."""
-    out = []
-    for sensor in ("accel", "mag"):
-        found, hit = _rails_of(session, sensor)
-        spoiled = [p.name for p in poses if hit is not None and hit[p.rows].any()]
-        if spoiled:
-            kept = [p for p in poses if not hit[p.rows].any()]
-            names = rail_names(sensor, found, _columns(session, sensor))
-            out.append((f"{sensor}: {names}: {len(spoiled)} of {len(poses)} poses read a sample at a rail and were "
-                        f"left out ({', '.join(spoiled)}; saturated: the pose's {sensor} beyond the range)",
-                        f"{len(spoiled)} poses with {names} are left out (saturated)"))
-            poses = kept
-    return poses, out
-
-
-def unclipped_turns_and_motions(session: SessionData, poses: list[Pose], turns: list[Turn],
-                                carries: list[tuple[int, int]]) -> tuple[list[Turn], list[tuple[int, int]],
-                                                                          list[tuple[str, str]]]:
-    """The turns and motions between poses with no gyro sample at a rail, and (warning, reason) if some had one:
-    a clipped rate sums to less than the turn, and a fit to it anyway scales H (a gyro clipped at 250 deg/s in
-    hand motions came out 20 % off)."""
-    found, hit = _rails_of(session, "gyro")
-    if hit is None:
-        return turns, carries, []
-    bad_turns = [k for k, t in enumerate(turns) if hit[t.rows].any()]
-    bad_carries = [c for c, (i, j) in enumerate(carries) if hit[poses[i].rows[-1]:poses[j].rows[0] + 1].any()]
-    if not bad_turns and not bad_carries:
-        return turns, carries, []
-    names = rail_names("gyro", found, _columns(session, "gyro"))
-    left = f"{len(bad_turns)} of {len(turns)} turns and {len(bad_carries)} of {len(carries)} motions between poses"
-    return ([t for k, t in enumerate(turns) if k not in bad_turns],
-            [ij for c, ij in enumerate(carries) if c not in bad_carries],
-            [(f"gyro: {names}: {left} read a sample at a rail and were left out (saturated: the rate beyond the "
-              "range is lost)", f"{left} with {names} are left out (saturated)")])
-
-
-def _rails_of(session: SessionData, sensor: str) -> tuple[list[Rail], np.ndarray | None]:
-    """A sensor's rails and the rows that read one (None without either)."""
-    if sensor not in session.raw:
-        return [], None
-    found = rails(session.raw[sensor])
-    return found, (pinned_rows(session.raw[sensor], found) if found else None)
-
-
-def _columns(session: SessionData, sensor: str) -> list[str] | None:
-    """The sensor's columns as the imported file calls them (None for a session the rig recorded)."""
-    return ((session.meta.get("imported") or {}).get("columns") or {}).get(sensor)
-
-
-@contextmanager
-def refused_for_saturation(session: SessionData, reasons: list[str]):
-    """A fit that cannot be made from what saturation left is refused naming the recording and the saturation,
-    in one line: the fit's own reason ('3 poses ... need at least 9') would blame poses the user did record."""
-    try:
-        yield
-    except CalibrationError as exc:
-        if not reasons:
-            raise
-        raise CalibrationError(f"{session.source}: {exc}, once {'; '.join(reasons)}") from None
-
-
-def check_no_stuck_axis(session: SessionData) -> None:
-    """Refuse a sensor axis that holds one value on every row (stuck, disconnected, or a column of zeros).
-
-    Nothing calibrates it: the fits left its column of H where they started (a gyro's at 1.8 with a standard
-    deviation of 0, an accelerometer's turned into a det(H) = 0 gyro error), and exited 0 with a warning about
-    rests or went on to name effects in it. The column is named as the imported file calls it.
-    """
-    names = (session.meta.get("imported") or {}).get("columns") or {}
-    for sensor, y in session.raw.items():
-        for k in range(y.shape[1]):
-            v = y[:, k][~np.isnan(y[:, k])]
-            if len(v) > 1 and np.ptp(v) == 0:
-                column = names.get(sensor, session.columns.get(sensor, "xyz"))[k]
-                raise CalibrationError(f"{session.source}: {sensor}.{'xyz'[k]} (column '{column}') holds the same "
-                                       f"value {v[0]:g} on all {len(v)} rows: a stuck axis cannot be calibrated")
 
 
 def pose_stats(session: SessionData, sensor: str, poses: list[Pose]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -352,7 +235,7 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
     try:
         sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity,
-                                           columns={s: _columns(session, s) for s in ("accel", "gyro")})
+                                           columns={s: imported_columns(session, s) for s in ("accel", "gyro")})
     except (CalibrationError, ValueError) as exc:       # name the recording, as every other refusal here does
         raise CalibrationError(f"{session.source}: {exc}") from None
     intervals = sensors["accel"].extra["intervals"]
