@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from rig.commands.lab import lab_errors, opened, store_option
-from rig.exits import CommandError, Exit
+from rig.exits import CommandError, Exit, stop_signals_raise
 
 
 @click.command()
@@ -42,6 +42,7 @@ def serve(store_url, host, port):
                    err=True)
         logging.getLogger("uvicorn.error").setLevel(logging.WARNING)
         config = uvicorn.Config(create_app(store), log_level="warning", access_log=False, lifespan="off")
-        uvicorn.Server(config).run(sockets=[sock])
+        with stop_signals_raise():        # uvicorn shuts down on SIGINT/SIGTERM, then raises the signal again here
+            uvicorn.Server(config).run(sockets=[sock])
     finally:
         store.close()

@@ -4,6 +4,7 @@ misaligned rig), names typed by users shown as text and never run, and nothing b
 
 from __future__ import annotations
 
+import signal
 import urllib.request
 
 import pytest
@@ -126,3 +127,15 @@ def test_serve_on_a_folder_store_and_a_busy_port(tmp_path, serve):
     assert status == 200 and b"1 calibration;" in body
     done = rig("serve", "--store", tmp_path / "f", "--port", site.port, timeout=30)
     assert done.returncode == 2 and "in use" in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("stop, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143), (signal.SIGHUP, 129)])
+def test_serve_stopped_by_a_signal_exits_as_every_command_does(tmp_path, serve, stop, code):
+    """uvicorn shuts down on SIGINT and SIGTERM and then raises the signal again; with its default handler back
+    that killed the process (no line, the store not closed), and SIGHUP killed it at once."""
+    make_archive(tmp_path / "f", [dict(unit="F-2", rig="r", start_utc="2026-05-01T08:00:00.000Z")])
+    site = serve(str(tmp_path / "f"))
+    site.proc.send_signal(stop)
+    assert site.proc.wait(15) == code
+    err = site.proc.stderr.read()
+    assert err.strip().splitlines()[-1] == "aborted" and "Traceback" not in err, err
