@@ -116,6 +116,7 @@ class LazyGroup(click.Group):
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         if args is None:                     # the `rig` process itself (a test runner passes its arguments)
             exits.process_ends_with_command = True
+            exits.stop_signals_raise_until_exit()
         sys.exit(guarded(lambda: super(LazyGroup, self).main(args, prog_name, complete_var,
                                                              standalone_mode=False, **extra), args))
 

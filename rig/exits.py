@@ -40,12 +40,8 @@ class Exit(enum.IntEnum):
 STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
 
 
-@contextlib.contextmanager
-def stop_signals_raise():
-    """SIGINT, SIGTERM and SIGHUP raise `StopSignal(signum)` where the work is (like Ctrl-C, but naming the
-    signal), once: a repeat while the table is being made safe, or a pool of workers closed, is ignored, so the
-    stop cannot be cut short. Work that starts processes runs inside it, so they are ended on the way out rather
-    than left behind by the default death."""
+def _raise_once():
+    """A handler that raises `StopSignal(signum)` for the first stop signal and ignores the ones after it."""
     stopping = []
 
     def handler(signum, frame):
@@ -54,13 +50,37 @@ def stop_signals_raise():
         stopping.append(signum)
         raise StopSignal(signum)
 
-    sigs = [getattr(signal, name) for name in STOP_SIGNALS if hasattr(signal, name)]
-    before = {sig: signal.signal(sig, handler) for sig in sigs}
+    return handler
+
+
+def _stop_signals() -> list[int]:
+    return [getattr(signal, name) for name in STOP_SIGNALS if hasattr(signal, name)]
+
+
+@contextlib.contextmanager
+def stop_signals_raise():
+    """SIGINT, SIGTERM and SIGHUP raise `StopSignal(signum)` where the work is (like Ctrl-C, but naming the
+    signal), once: a repeat while the table is being made safe, or a pool of workers closed, is ignored, so the
+    stop cannot be cut short. Work that starts processes runs inside it, so they are ended on the way out rather
+    than left behind by the default death."""
+    handler = _raise_once()
+    before = {sig: signal.signal(sig, handler) for sig in _stop_signals()}
     try:
         yield
     finally:
         for sig, old in before.items():
             signal.signal(sig, old)
+
+
+def stop_signals_raise_until_exit() -> None:
+    """The `rig` process's own handlers, set as it starts: every command ends on SIGTERM or SIGHUP as on Ctrl-C
+    (one line, 128 + N, its `finally` blocks run: a half-written file's temporary removed, a store closed) rather
+    than by the signal's default death, which said nothing and left them. Commands that stop a table or a pool
+    put their own handlers over these (`stop_signals_raise`) and give them back after; never given back here,
+    since the process ends with its command."""
+    handler = _raise_once()
+    for sig in _stop_signals():
+        signal.signal(sig, handler)
 
 
 def aborted(signum: int | None) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from rig.commands.lab import lab_errors, opened, store_option
-from rig.exits import CommandError, Exit, stop_signals_raise
+from rig.exits import CommandError, Exit
 
 
 @click.command()
@@ -42,7 +42,6 @@ def serve(store_url, host, port):
                    err=True)
         logging.getLogger("uvicorn.error").setLevel(logging.WARNING)
         config = uvicorn.Config(create_app(store), log_level="warning", access_log=False, lifespan="off")
-        with stop_signals_raise():        # uvicorn shuts down on SIGINT/SIGTERM, then raises the signal again here
-            uvicorn.Server(config).run(sockets=[sock])
+        uvicorn.Server(config).run(sockets=[sock])     # on SIGINT/SIGTERM: shuts down, then raises it again
     finally:
         store.close()

@@ -225,3 +225,28 @@ def test_the_rig_process_and_a_test_runner_are_told_apart():
     assert out.stdout.strip().endswith("True"), out
     CliRunner().invoke(main, ["--help"])
     assert not exits.process_ends_with_command
+
+
+@pytest.mark.parametrize("stop, code", [("SIGTERM", 143), ("SIGHUP", 129), ("SIGINT", 130)])
+def test_any_command_stopped_by_a_signal_ends_in_one_line_with_its_code(tmp_path, stop, code):
+    """A command with no stop handling of its own (here `rig import csv`, blocked opening a pipe no logger writes
+    yet) ends on SIGTERM and SIGHUP as on Ctrl-C: the signal's default death said nothing and skipped the
+    command's clean-up (a half-written file's temporary was left in the session folder)."""
+    import os
+    import signal
+    import time
+
+    fifo = tmp_path / "log.csv"
+    os.mkfifo(fifo)
+    proc = subprocess.Popen([*RIG, "import", "csv", str(fifo), "--rate-hz", "100", "--accel", "ax,ay,az",
+                             "--out", str(tmp_path / "out")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(3.0)                      # started, and blocked in opening the pipe
+        assert proc.poll() is None, proc.communicate()
+        proc.send_signal(getattr(signal, stop))
+        _, err = proc.communicate(timeout=20)
+        assert proc.returncode == code, err
+        assert err.strip().splitlines()[-1] == "aborted" and "Traceback" not in err, err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
