@@ -86,6 +86,16 @@ def load_config(path: str | Path | None = None) -> RigConfig:
     profile = config.turntable.profile
     if path is not None and profile and not Path(profile).is_absolute():
         config.turntable.profile = str(Path(path).parent / profile)     # beside the file that names it
+    if profile:
+        # read here: a missing or malformed register map was found only when the session started, as a fault of
+        # the turntable (exit 3, "key '<file>': no such file"), leaving a session folder behind
+        from rig.turntable.profile import load_profile
+
+        try:
+            load_profile(config.turntable.profile)
+        except ValueError as e:
+            raise ValueError(f"{where}: [turntable] profile = {profile!r} (a path relative to this configuration): "
+                             f"{e}") from None
     return config
 
 
@@ -211,9 +221,9 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
     try:
         placements(cfg.board, cfg.chips)
         check_sim(cfg.board, cfg.sim)
-        sim_faults(cfg)
     except ValueError as e:
         raise ValueError(f"{where}: {e}") from None
+    sim_faults(cfg)                  # names the file itself (it was named twice)
     if not 9 <= cfg.schedule.orientations <= 64:
         raise ValueError(f"{where}: [schedule] orientations = {cfg.schedule.orientations}; use 10 to 20 "
                          "(9..64 allowed: the ellipsoid needs 9)")
@@ -234,6 +244,10 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
         validate_limits(cfg.limits)
     except LimitsError as e:
         raise ValueError(f"{where}: [limits] {e}") from None
+    sensors = sorted(BOARD_SPECS[cfg.board].triads)
+    for sensor in cfg.limits:        # [limits.acel]: its limits were never checked and the verdict said PASS
+        if sensor not in sensors:
+            raise ValueError(f"{where}: [limits.{sensor}]: no such sensor; the {cfg.board} board has {sensors}")
     return cfg
 
 
@@ -270,6 +284,11 @@ def check_sim(board: str, sim: dict) -> None:
             raise ValueError(f"[sim.chips] {part}: the {board} board has no such part; parts: {list(names)}")
         if choice not in SIM_CHOICES:
             raise ValueError(f"[sim.chips] {part} = {choice!r}; allowed: {list(SIM_CHOICES)}")
+    for p in BOARD_SPECS[board].parts:  # an analog sensor and its ADC are emulated together (rig.assembly)
+        if p.adc is not None and p.name in chips and p.adc in chips and chips[p.name] != chips[p.adc]:
+            # one of the two silently became what the user said it was not
+            raise ValueError(f"[sim.chips] {p.name} = {chips[p.name]!r} but {p.adc} = {chips[p.adc]!r}: {p.name} "
+                             f"({p.chip}) is read through {p.adc}, so both are real or both fake")
 
 
 @dataclass(frozen=True)

@@ -66,3 +66,38 @@ def test_plan_refuses_a_zero_axis_as_bad_input_naming_the_key(tmp_path):
     res = rig("plan", "--config", str(cfg))
     assert res.returncode == 2, res.stderr
     assert f"{cfg}: [table] outer_axis_world" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_a_missing_profile_is_bad_input_naming_the_key_before_a_folder_is_made(tmp_path):
+    """It was a turntable fault (exit 3, "key '<file>': no such file") once the session had started."""
+    cfg = tmp_path / "rig.toml"
+    cfg.write_text(edited("settle_s = 0.3", 'settle_s = 0.3\nprofile = "my-table.toml"'))
+    with pytest.raises(ValueError) as err:
+        load_config(cfg)
+    assert str(err.value).startswith(f"{cfg}: [turntable] profile = 'my-table.toml'")
+    assert str(tmp_path / "my-table.toml") in str(err.value)
+    res = rig("calibrate", "--sim", "--config", str(cfg), "--out", str(tmp_path / "out"), "--no-progress")
+    assert res.returncode == 2 and "[turntable] profile" in res.stderr, res.stderr
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("extra,needle", [
+    # a misspelt sensor's limits were never checked, and the verdict said PASS
+    ("[limits.acel]\nresidual_rms_max = 0.05\n", "[limits.acel]: no such sensor"),
+    # the ADC was emulated although the file says it is real
+    ('[sim.chips]\nadc = "real"\naccel = "fake"\n', "[sim.chips] accel = 'fake' but adc = 'real'"),
+])
+def test_a_setting_that_would_be_silently_overridden_is_refused(tmp_path, extra, needle):
+    cfg = tmp_path / "rig.toml"
+    cfg.write_text(SIM_TOML + "\n" + extra)
+    with pytest.raises(ValueError) as err:
+        load_config(cfg)
+    assert str(err.value).startswith(f"{cfg}: ") and needle in str(err.value), str(err.value)
+
+
+def test_a_fault_plan_error_names_the_file_once(tmp_path):
+    cfg = tmp_path / "rig.toml"
+    cfg.write_text(SIM_TOML + "\n[sim.faults]\nmodbus_drop = 0.1\n")
+    with pytest.raises(ValueError) as err:
+        load_config(cfg)
+    assert str(err.value).count(str(cfg)) == 1 and "['modbus_drop']" in str(err.value)
