@@ -101,3 +101,14 @@ def test_a_fault_plan_error_names_the_file_once(tmp_path):
     with pytest.raises(ValueError) as err:
         load_config(cfg)
     assert str(err.value).count(str(cfg)) == 1 and "['modbus_drop']" in str(err.value)
+
+
+@pytest.mark.parametrize("value", ["-50", '"fast"'])
+def test_a_chip_setting_the_driver_refuses_is_bad_input_naming_file_and_part(tmp_path, value):
+    """It was an internal error (exit 70) once the drivers were attached."""
+    cfg = tmp_path / "rig.toml"
+    cfg.write_text(SIM_TOML + f"\n[chips.gyro]\nrate_hz = {value}\n")
+    res = rig("calibrate", "--sim", "--config", str(cfg), "--out", str(tmp_path / "out"), "--no-progress")
+    assert res.returncode == 2, res.stderr
+    assert f"{cfg}: [chips.gyro] (ITG-3200)" in res.stderr and "internal error" not in res.stderr
+    assert not (tmp_path / "out" / "session.sqlite").exists()
