@@ -112,3 +112,13 @@ def test_a_chip_setting_the_driver_refuses_is_bad_input_naming_file_and_part(tmp
     assert res.returncode == 2, res.stderr
     assert f"{cfg}: [chips.gyro] (ITG-3200)" in res.stderr and "internal error" not in res.stderr
     assert not (tmp_path / "out" / "session.sqlite").exists()
+
+
+@pytest.mark.parametrize("command", [["plan"], ["calibrate", "--sim", "--no-progress"]])
+def test_orientations_with_a_budget_is_refused_not_silently_ignored(tmp_path, command):
+    """`--orientations 12 --budget-s 60` ran the planner's 19 orientations without a word."""
+    res = rig(*command, "--budget-s", "60", "--orientations", "12", *(["--out", str(tmp_path / "out")]
+                                                                       if "calibrate" in command else []))
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "--orientations" in res.stderr and "--budget-s" in res.stderr
+    assert not (tmp_path / "out").exists()
