@@ -30,12 +30,16 @@ from fixtures.simrig import SimulatedHardware
 from rig.board import SensorBoard, build_board, placements
 from rig.clock import Clock, RealClock, SimClock
 from rig.config import RigConfig
-from rig.errors import RigError
+from rig.errors import InputError, RigError
 from rig.turntable import TurntableLink
 
 
 class AssemblyError(click.ClickException, RigError):
     """The rig cannot be built as configured: one message naming the device or setting, no traceback."""
+
+
+class BadSetting(AssemblyError, InputError):
+    """A setting of the configuration the drivers refuse (exit 2, bad input); named with the file and the part."""
 
 
 class HardwareUnavailable(AssemblyError):
@@ -132,6 +136,8 @@ def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0
             board = build_board(config.board, wirings, chips=config.chips)
         except DriverError as e:
             raise HardwareUnavailable(str(e)) from None
+        except ValueError as e:          # was an internal error (exit 70) for [chips.gyro] rate_hz = -50
+            raise BadSetting(f"{config.source}: {e}") from None
         link = _link(config, clock, hw.url if table_fake else None)
         stack.enter_context(link)
         table = FollowedTable(link, clock, track) if track is not None else link

@@ -118,7 +118,10 @@ def build_board(kind: str, wiring: Wiring | Mapping[str, Wiring], *, chips: Mapp
         if p.adc is not None and p.adc in home and home[p.adc] is not w:
             raise ValueError(f"{p.name} ({p.chip}) is read through {p.adc}: both must be real or both fake")
         w.parts.update(built)
-        built[p.name] = chip_class(p.chip).attach(p, w)
+        try:
+            built[p.name] = chip_class(p.chip).attach(p, w)
+        except (ValueError, TypeError) as e:     # a chip setting the driver refuses (rate_hz = -50 or "fast")
+            raise ValueError(f"[chips.{p.name}] ({p.chip}): {e}") from None
         home[p.name] = w
     triads = {t: built[name].sensor(t) for t, name in spec.triads.items()}
     temperature = supply = None

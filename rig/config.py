@@ -86,6 +86,16 @@ def load_config(path: str | Path | None = None) -> RigConfig:
     profile = config.turntable.profile
     if path is not None and profile and not Path(profile).is_absolute():
         config.turntable.profile = str(Path(path).parent / profile)     # beside the file that names it
+    if profile:
+        # read here: a missing or malformed register map was found only when the session started, as a fault of
+        # the turntable (exit 3, "key '<file>': no such file"), leaving a session folder behind
+        from rig.turntable.profile import load_profile
+
+        try:
+            load_profile(config.turntable.profile)
+        except ValueError as e:
+            raise ValueError(f"{where}: [turntable] profile = {profile!r} (a path relative to this configuration): "
+                             f"{e}") from None
     return config
 
 
@@ -101,6 +111,9 @@ def _check_keys(raw: dict, where: str) -> None:
     unknown = set(raw) - set(SECTIONS)
     if unknown:
         raise ValueError(f"{where}: unknown sections {sorted(unknown)}; allowed: {sorted(SECTIONS)}")
+    for name in SECTIONS:        # `unit = "x"` instead of a [unit] table: its characters were read as its keys
+        if name in raw and not isinstance(raw[name], dict):
+            raise ValueError(f"{where}: {name} = {raw[name]!r} must be a table (a [{name}] section)")
     for name, keys in SECTIONS.items():
         if keys is not None and not set(raw.get(name, {})) <= set(keys):
             raise ValueError(f"{where}: [{name}] has unknown keys {sorted(set(raw[name]) - set(keys))}; "
@@ -124,16 +137,61 @@ def _section(raw: dict, name: str, cls, where: str):
         if isinstance(default, int) and not isinstance(default, bool) and isinstance(value, float) \
                 and not value.is_integer():
             raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a whole number")
+        if (isinstance(default, str) or default is None) and not isinstance(value, str):
+            # url = 5 or profile = 5 used to pass here and crash deep in the turntable client (exit 70)
+            raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a string")
+        if numeric and (name, key) in RANGES:
+            lo, hi, why = RANGES[name, key]
+            if not lo <= value <= hi:
+                raise ValueError(f"{where}: [{name}] {key} = {value!r} must be in {lo:g}..{hi:g} ({why})")
     try:
         return cls(**data)
     except TypeError as e:
         raise ValueError(f"{where}: [{name}]: {e}") from None
 
 
+# Ranges a rig can run, checked where the file is read. Outside them the session failed deep inside (mag_every = 0:
+# a ZeroDivisionError after the session was created, exit 70), ran without sense (settle_s = -1, hold_s = 0.01:
+# one sample a hold, verdict PASS), or `rig plan` itself ran out of memory (speed_dps = 0.001,
+# settle_s = 1e6: the moves sampled for hours) or crashed (hold_s = 1e308).
+RANGES = {  # (section, key): (lowest, highest, why)
+    ("schedule", "hold_s"): (0.1, 3600.0, "seconds; 1.5 or more lets bump detection judge three 0.5 s windows"),
+    ("schedule", "rate_hz"): (1.0, 1000.0, "the sample grid, Hz"),
+    ("schedule", "mag_every"): (1, 1000, "the magnetometer is read every N-th sample"),
+    ("schedule", "max_hold_attempts"): (1, 100, "tries of a hold that shows motion"),
+    ("schedule", "hold_min_s"): (0.0, 3600.0, "seconds"),
+    ("schedule", "hold_max_s"): (0.0, 36000.0, "seconds; 0: three times hold_s"),
+    ("turntable", "speed_dps"): (0.1, 10000.0, "deg/s"),
+    ("turntable", "accel_dps2"): (0.1, 1e6, "deg/s^2"),
+    ("turntable", "tolerance_deg"): (1e-6, 1.0, "the in-position window, deg"),
+    ("turntable", "settle_s"): (0.0, 60.0, "seconds in position before a hold"),
+    ("turntable", "poll_every"): (1, 10000, "sample ticks between status polls during moves"),
+    ("turntable", "watchdog_ms"): (0, 65535, "ms; 0: off"),
+}
+
+
 def _positive(section: dict, key: str, default: float, where: str) -> float:
     value = section.get(key, default)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
         raise ValueError(f"{where}: [environment] {key} = {value!r} must be a positive finite number")
+    return float(value)
+
+
+def _axis(table: dict, key: str, default: tuple, where: str) -> tuple[float, float, float]:
+    """A [table] axis: three finite numbers, not all zero. A scalar crashed (exit 70), a string gave a message
+    naming neither file nor key, and a zero or NaN axis made every orientation NaN (exit 3, "schedule")."""
+    value = table.get(key, default)
+    if not (isinstance(value, (list, tuple)) and len(value) == 3 and all(_finite(v) for v in value)
+            and any(v != 0 for v in value)):
+        raise ValueError(f"{where}: [table] {key} = {value!r} must be a direction: three finite numbers, "
+                         "not all zero (e.g. [1, 0, 0])")
+    return tuple(float(v) for v in value)
+
+
+def _finite_number(table: dict, key: str, where: str) -> float:
+    value = table.get(key, 0.0)
+    if not _finite(value):
+        raise ValueError(f"{where}: [table] {key} = {value!r} must be a finite number (degrees)")
     return float(value)
 
 
@@ -145,10 +203,10 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
         raise ValueError(f"{where}: [unit] board = {board!r}; allowed: {list(BOARDS)}")
     table = raw.get("table", {})
     geometry = TableGeometry(
-        outer_axis_world=tuple(float(v) for v in table.get("outer_axis_world", (1, 0, 0))),
-        inner_axis_fixture=tuple(float(v) for v in table.get("inner_axis_fixture", (0, 0, 1))),
-        outer_zero_deg=float(table.get("outer_zero_deg", 0.0)),
-        inner_zero_deg=float(table.get("inner_zero_deg", 0.0)))
+        outer_axis_world=_axis(table, "outer_axis_world", (1.0, 0.0, 0.0), where),
+        inner_axis_fixture=_axis(table, "inner_axis_fixture", (0.0, 0.0, 1.0), where),
+        outer_zero_deg=_finite_number(table, "outer_zero_deg", where),
+        inner_zero_deg=_finite_number(table, "inner_zero_deg", where))
     env = raw.get("environment", {})
     cfg = RigConfig(serial=str(unit.get("serial", "UNKNOWN")), board=board, operator=str(unit.get("operator", "")),
                     turntable=_section(raw, "turntable", TurntableConfig, where), geometry=geometry,
@@ -163,9 +221,9 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
     try:
         placements(cfg.board, cfg.chips)
         check_sim(cfg.board, cfg.sim)
-        sim_faults(cfg)
     except ValueError as e:
         raise ValueError(f"{where}: {e}") from None
+    sim_faults(cfg)                  # names the file itself (it was named twice)
     if not 9 <= cfg.schedule.orientations <= 64:
         raise ValueError(f"{where}: [schedule] orientations = {cfg.schedule.orientations}; use 10 to 20 "
                          "(9..64 allowed: the ellipsoid needs 9)")
@@ -186,6 +244,10 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
         validate_limits(cfg.limits)
     except LimitsError as e:
         raise ValueError(f"{where}: [limits] {e}") from None
+    sensors = sorted(BOARD_SPECS[cfg.board].triads)
+    for sensor in cfg.limits:        # [limits.acel]: its limits were never checked and the verdict said PASS
+        if sensor not in sensors:
+            raise ValueError(f"{where}: [limits.{sensor}]: no such sensor; the {cfg.board} board has {sensors}")
     return cfg
 
 
@@ -222,6 +284,11 @@ def check_sim(board: str, sim: dict) -> None:
             raise ValueError(f"[sim.chips] {part}: the {board} board has no such part; parts: {list(names)}")
         if choice not in SIM_CHOICES:
             raise ValueError(f"[sim.chips] {part} = {choice!r}; allowed: {list(SIM_CHOICES)}")
+    for p in BOARD_SPECS[board].parts:  # an analog sensor and its ADC are emulated together (rig.assembly)
+        if p.adc is not None and p.name in chips and p.adc in chips and chips[p.name] != chips[p.adc]:
+            # one of the two silently became what the user said it was not
+            raise ValueError(f"[sim.chips] {p.name} = {chips[p.name]!r} but {p.adc} = {chips[p.adc]!r}: {p.name} "
+                             f"({p.chip}) is read through {p.adc}, so both are real or both fake")
 
 
 @dataclass(frozen=True)

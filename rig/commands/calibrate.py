@@ -231,10 +231,11 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
     config = _config(config_path, orientations)
     plan = None
     if budget_s is not None or target_h_pct is not None:
-        from rig.commands.plan import planned_config, predicted_lines
+        from rig.commands.plan import planned_config, predicted_lines, refuse_orientations_with_planner
 
         if budget_s is not None and target_h_pct is not None:
             raise click.UsageError("give --budget-s or --target-h-pct, not both")
+        refuse_orientations_with_planner(orientations, budget_s, target_h_pct)
         config, chosen, default, _ = planned_config(config, budget_s, target_h_pct, noise_from)
         click.echo(f"plan: {chosen.orientations} orientations, holds of {chosen.hold_s} s, moves at up to "
                    f"{chosen.speed_dps:g} deg/s; estimated rig time {chosen.eta_s:.0f} s; predicted:")

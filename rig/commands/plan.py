@@ -40,6 +40,14 @@ def planned_config(config, budget_s: float | None, target_h_pct: float | None, n
     return planner.applied(config, plan), plan, default, noise
 
 
+def refuse_orientations_with_planner(orientations, budget_s, target_h_pct) -> None:
+    """--orientations with a budget or a target contradicts them: the planner chooses the number of orientations,
+    and `--orientations 12 --budget-s 60` silently ran 19."""
+    if orientations and (budget_s is not None or target_h_pct is not None):
+        raise click.UsageError("--orientations and --budget-s/--target-h-pct contradict each other: with a budget "
+                               "or a target the planner chooses the orientations; give one or the other")
+
+
 def noise_of_session(folder: Path):
     """The white noise per sample of each sensor of a recorded session, in calibrated units: the median over its
     holds of each axis's spread, through the session's own calibration (`calibration.json` beside it)."""
@@ -100,6 +108,7 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
 
     if budget_s is not None and target_h_pct is not None:
         raise click.UsageError("give --budget-s or --target-h-pct, not both")
+    refuse_orientations_with_planner(orientations, budget_s, target_h_pct)
     started = time.perf_counter()
     config, chosen, default, noise = planned_config(_config(config_path, orientations), budget_s, target_h_pct,
                                                     noise_from)
