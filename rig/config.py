@@ -16,6 +16,7 @@ from rig.board import placements
 from rig.boards import BOARDS as BOARD_SPECS
 from rig.report.limits import LimitsError, validate_limits
 from rig.rotations import TableGeometry
+from rig.turntable.profile import load_profile
 
 BOARDS = tuple(BOARD_SPECS)
 SIM_CHOICES = ("fake", "real")
@@ -89,8 +90,6 @@ def load_config(path: str | Path | None = None) -> RigConfig:
     if profile:
         # read here: a missing or malformed register map was found only when the session started, as a fault of
         # the turntable (exit 3, "key '<file>': no such file"), leaving a session folder behind
-        from rig.turntable.profile import load_profile
-
         try:
             load_profile(config.turntable.profile)
         except ValueError as e:
