@@ -35,8 +35,12 @@ class HoldStats:
 SETTLE_NOISE_FACTOR = 6.0
 SETTLE_FLOOR_RAD = float(np.radians(0.005))
 # A pause longer than this inside a hold's rows is a new visit (the table was away, or the rig was stopped),
-# settled anew; shorter holes are lost reads (a retried bus or table request: 0.05-0.2 s).
+# settled anew; shorter holes are lost reads (a retried bus or table request: 0.05-0.2 s). Nor shorter than
+# VISIT_GAP_INTERVALS of the hold rows' own median interval: a logger writing 1 row a second (another lab's, the
+# static sensors only) has every row 1 s after the last, and with 0.5 s alone each row was a visit of its own,
+# emptied by the settling time: no hold was left, and the refusal blamed the number of orientations.
 VISIT_GAP_S = 0.5
+VISIT_GAP_INTERVALS = 10.0
 
 
 @dataclass
@@ -121,7 +125,9 @@ class SessionData:
         if rows.size == 0:
             return []
         apart = (np.diff(rows) != 1) | (np.diff(self.step[rows]) != 0)
-        breaks = np.flatnonzero(apart | (np.diff(self.t[rows]) > VISIT_GAP_S)) + 1
+        dt = np.diff(self.t[rows])
+        gap = max(VISIT_GAP_S, VISIT_GAP_INTERVALS * float(np.median(dt))) if dt.size else VISIT_GAP_S
+        breaks = np.flatnonzero(apart | (dt > gap)) + 1
         out: dict[int, np.ndarray] = {}
         joined = np.r_[False, ~apart[breaks - 1]] if breaks.size else np.array([False])
         for seg, same_visit_run in zip(np.split(rows, breaks), joined):

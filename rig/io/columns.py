@@ -69,6 +69,8 @@ def read_columns(path: Path, header: list[str], numeric: list[str], text: list[s
         try:
             values = np.loadtxt(_numeric_lines(path, header, delimiter), delimiter=delimiter,
                                 usecols=[index[n] for n in numeric], dtype=dtype, ndmin=1, comments=None)
+        except SessionFormatError:
+            raise            # from _numeric_lines, already naming its line (a ValueError: not to be wrapped again)
         except (ValueError, IndexError, OverflowError) as exc:
             _raise_first_problem(path, header, numeric, integers, delimiter, required)
             raise SessionFormatError(path, f"cannot be read as numbers: {exc}") from None
@@ -123,6 +125,11 @@ def _numeric_lines(path: Path, header: list[str], delimiter: str) -> Iterator[st
             cells = line.count(delimiter) + 1
             raise SessionFormatError(path, f"row has {cells} cells, the header has {width}", line_no,
                                      header[cells] if cells < width else None)
+        if (" " in line or "\t" in line) and '"' not in line:
+            # Cells padded with blanks ("1, 2, , 4", as printf-style loggers write them): the header's names and
+            # the second pass strip them, so the parser must too; a blank-only cell reached it as " " and the
+            # user got the parser's "row 1, column 16" instead of a line of the file.
+            line = delimiter.join(cell.strip() for cell in line.split(delimiter))
         if empty in line:
             line = line.replace(empty, filled).replace(empty, filled)
         if line.startswith(delimiter):

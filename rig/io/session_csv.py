@@ -45,6 +45,9 @@ ANGLE_LIMIT_DEG = 36000.0
 COUNT_LIMIT = 2.0 ** 32
 RAW_LIMITS = {"m/s^2": 1e4, "deg/s": 1e5, "rad/s": 2e3, "uT": 1e5}
 WRITE_BLOCK_ROWS = 50_000
+# Rows this many times further apart (or closer) than sample_rate_hz says: t is not in seconds (ms: 1000 times).
+# Not a tighter bound: rows of several sensors at different rates may come faster than the rate meta.json gives.
+RATE_MISMATCH = 100.0
 
 
 def read_session(folder: str | os.PathLike) -> SessionData:
@@ -75,6 +78,8 @@ def read_session(folder: str | os.PathLike) -> SessionData:
     t = cols["t"]
     _check_increasing(samples, t)
     _check_range(samples, "t", t, -T_LIMIT_S, T_LIMIT_S, "s")
+    if meta.get("sample_rate_hz") is not None:
+        _check_time_unit(samples, t, float(meta["sample_rate_hz"]))
     if has_phase:
         phase = cols["phase"]
         bad = ~np.isin(phase, PHASES)
@@ -277,6 +282,20 @@ def _check_increasing(path: Path, t: np.ndarray) -> None:
         i = int(bad[0]) + 1
         raise SessionFormatError(path, f"t = {float(t[i])!r} s is not after the previous row's t = {float(t[i - 1])!r} s "
                                  "(t must increase monotonically)", i + FIRST_DATA_LINE, "t")
+
+
+def _check_time_unit(path: Path, t: np.ndarray, rate_hz: float) -> None:
+    """t is in seconds (session-csv.md); rows `RATE_MISMATCH` times further apart or closer than meta.json's
+    sample_rate_hz says are a t in another unit (a logger's milliseconds: 1000 times). Read as seconds, such a file
+    calibrated the gyro 1000 times too small with exit 0 and no warning."""
+    if len(t) < 3:
+        return
+    dt = float(np.median(np.diff(t)))
+    ratio = dt * rate_hz
+    if ratio > RATE_MISMATCH or ratio < 1.0 / RATE_MISMATCH:
+        raise SessionFormatError(path, f"rows are {dt:.6g} s apart (median) but meta.json says sample_rate_hz "
+                                 f"{rate_hz:g}: t must be in seconds (is it in ms or us?), or sample_rate_hz is "
+                                 "wrong", FIRST_DATA_LINE + 1, "t")
 
 
 def _check_move_steps(path: Path, is_move: np.ndarray, step: np.ndarray) -> None:

@@ -9,6 +9,7 @@ warning, never a silently wrong matrix.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 from typing import Callable
@@ -17,6 +18,7 @@ import numpy as np
 
 from rig.calibration import turntable_free
 from rig.calibration.recording import calibrate_recording
+from rig.calibration.recording_checks import check_no_stuck_axis
 from rig.calibration.result import TriadCalibration
 from rig.calibration.threads import one_blas_thread
 from rig.errors import CalibrationError
@@ -53,6 +55,10 @@ def _calibrate_session(session: SessionData, *, method: str, settle_s: float, gy
     if session.meta.get("reference") == "none":
         return calibrate_without_table(session)
     check_finite(session)
+    # A stuck axis (one value on every row) is refused as in a recording: the turntable fits went on with it, a
+    # gyro axis stuck at its bias gave an H 24 times too large with exit 0, a stuck accelerometer or
+    # magnetometer axis a refusal that blamed the schedule ("the orientations are coplanar").
+    check_no_stuck_axis(session)
     warnings: list[str] = []
     if settle_s > 0:
         warnings.append(f"dropped the first {settle_s:g} s of every hold as settling")
@@ -65,12 +71,14 @@ def _calibrate_session(session: SessionData, *, method: str, settle_s: float, gy
     holds = {s: without_steps(h, excluded) for s, h in holds.items()}
 
     sensors: dict[str, TriadCalibration] = {}
-    for name in session.sensors:
-        if name == "gyro":
-            sensors[name] = calibrate_gyro_triad(session, holds[name], excluded, warnings, settle_s, gyro_samples)
-        else:
-            sensors[name] = calibrate_vector(session, name, holds[name], method, warnings)
-        check_result(name, sensors[name], reference_norm(session, name), warnings)
+    with refused_naming_lost_holds(session, settle_s, excluded):
+        for name in session.sensors:
+            if name == "gyro":
+                sensors[name] = calibrate_gyro_triad(session, holds[name], excluded, warnings, settle_s,
+                                                     gyro_samples)
+            else:
+                sensors[name] = calibrate_vector(session, name, holds[name], method, warnings)
+            check_result(name, sensors[name], reference_norm(session, name), warnings)
     add_lever_arm(session, sensors, warnings)
     if move_samples and method == "joint":
         refine_vector_with_moves(session, holds, sensors, excluded, warnings, settle_s)
@@ -78,6 +86,30 @@ def _calibrate_session(session: SessionData, *, method: str, settle_s: float, gy
                                 holds_used={s: len(h.step) for s, h in holds.items()})
     result.summary = summary_lines(result)
     return result
+
+
+@contextlib.contextmanager
+def refused_naming_lost_holds(session: SessionData, settle_s: float, excluded: dict[int, str]):
+    """A fit refused for too few holds or moves says which of the recorded ones were not used and why.
+
+    The warnings that name them are printed only with a result, so a session of 0.5 s holds (another tool's
+    logger) calibrated with the default 0.5 s settling was refused with "accel: 0 usable orientations, need at
+    least 6" about a file with 14 of them, and nothing said that --settle-s had taken them all."""
+    try:
+        yield
+    except CalibrationError as exc:
+        recorded = [j for j, _ in session.hold_rows(0.0)]
+        settled = {j for j, _ in session.hold_rows(settle_s)}
+        short = [j for j in recorded if j not in settled]
+        lost = []
+        if short:
+            lost.append(f"{len(short)} of {len(recorded)} holds are shorter than the settling time {settle_s:g} s "
+                        "(--settle-s) and were not used")
+        if excluded:
+            lost.append(f"{len(excluded)} holds were excluded (step {min(excluded)}: {excluded[min(excluded)]})")
+        if not lost:
+            raise
+        raise CalibrationError(f"{exc}; {'; '.join(lost)}") from None
 
 
 def calibrate_without_table(session: SessionData) -> SessionCalibration:

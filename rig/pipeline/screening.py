@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.calibration.saturation import rails
 from rig.errors import CalibrationError
 from rig.outliers import OUTLIER_SIGMAS
 from rig.session_data import HoldStats, MoveStream, SessionData
@@ -21,6 +22,9 @@ MOTION_STD_FLOOR_COUNTS = 1.0
 # the mean of quantised samples without noise to dither them can be off anyway, was turning.
 GYRO_MEAN_SIGMAS = 6.0
 GYRO_MEAN_FLOOR_COUNTS = 0.5
+# An axis whose consecutive samples at rest differ more often than this is dithered by noise (about 1 count or
+# more): there, and only there, a hold or move piled up at the stream's extreme is clipped, not just quiet.
+DITHERED_FRACTION = 0.5
 # A move is not integrated across a hole in its samples longer than this many of its median sample intervals
 # (and MOVE_GAP_MIN_S): the rotation in the hole is unknown. Nor across a recorded resume (a clock gap).
 MOVE_GAP_INTERVALS = 10.0
@@ -98,17 +102,30 @@ def is_rail(v: float) -> bool:
     return all_ones or power_of_two
 
 
-def rail_codes(y: np.ndarray) -> list[tuple[int, float]]:
+def rail_codes(y: np.ndarray, rest_rows: np.ndarray | None = None) -> list[tuple[int, float]]:
+    """(axis, value) of each extreme of a stream that may be a rail: a full-scale code of an integer ADC, or, on
+    an axis whose samples at rest (`rest_rows`, the settled holds' rows) are dithered by noise, any extreme at which
+    the samples pile up (`rig.calibration.saturation.rails`). The codes alone missed a session another tool wrote:
+    a logger that clips elsewhere (a range set below the ADC's, an offset already taken off) calibrated an
+    accelerometer clipped in 2 holds 6 % off, a gyro clipped in its moves 27 % off, both with exit 0. Not on a
+    quiet axis: a sensor without noise reads one code through a whole hold (or a cruise at constant rate), which
+    piles up at the stream's extreme as clipping does. Each hold or move is still judged by its own pile
+    (`piles_at`)."""
     out = []
     for axis in range(3):
         col = y[:, axis][~np.isnan(y[:, axis])]
         if col.size:
             out += [(axis, float(v)) for v in {col.min(), col.max()} if is_rail(float(v))]
+    if rest_rows is not None and len(rest_rows) > 1:
+        rest = y[np.sort(rest_rows)]
+        rest = np.diff(rest[~np.isnan(rest).any(axis=1)], axis=0)   # a slower sensor's empty rows skipped
+        dithered = (rest != 0).mean(axis=0) > DITHERED_FRACTION if len(rest) else np.zeros(3, dtype=bool)
+        out += [(r.axis, r.value) for r in rails(y) if dithered[r.axis] and (r.axis, r.value) not in out]
     return out
 
 
 def saturated_holds(y: np.ndarray, rows: dict[int, np.ndarray]) -> list[tuple[int, int, float]]:
-    rails = rail_codes(y)
+    rails = rail_codes(y, np.concatenate(list(rows.values())) if rows else None)
     return [(step, axis, rail) for step, idx in rows.items() for axis, rail in rails
             if piles_at(y[idx, axis], rail, min_count=3)]
 
@@ -161,7 +178,7 @@ def trusted_moves(session: SessionData, excluded: dict[int, str], warnings: list
     next_step = dict(zip(order[:-1], order[1:]))
     bounds = {j: (float(session.t[a[-1]]), float(session.t[b[0]])) for (j, a), (_, b) in zip(holds[:-1], holds[1:])}
     y_all = session.raw["gyro"]
-    rails = rail_codes(y_all)
+    rails = rail_codes(y_all, np.concatenate([rows for _, rows in holds]) if holds else None)
     out = []
     resumes = resume_times(session)
     for m in session.moves("gyro", settle_s):

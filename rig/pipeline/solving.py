@@ -87,7 +87,9 @@ def calibrate_gyro_triad(session: SessionData, h: HoldStats, excluded: dict[int,
     noise = np.maximum(np.median(h.std, axis=0), QUANTISATION_STD)
     moves = trusted_moves(session, excluded, warnings, settle_s, B, GYRO_STILL_SIGMAS * noise)
     if len(moves) < MIN_GYRO_MOVES:
-        raise CalibrationError(f"gyro: {len(moves)} usable moves between holds, need at least {MIN_GYRO_MOVES}")
+        # A logger that writes only its holds leaves the gyro nothing to integrate: say so, not just "0 moves".
+        why = "" if session.is_move.any() else " (the session has no 'move' rows: the gyro's H needs the moves)"
+        raise CalibrationError(f"gyro: {len(moves)} usable moves between holds, need at least {MIN_GYRO_MOVES}{why}")
     check_move_axes(moves)
     cal = gyro.calibrate_gyro(moves, B, samples=samples, rate_noise_counts=noise)
     warn_coarse_sampling(moves, cal, warnings)
