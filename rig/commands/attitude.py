@@ -47,6 +47,7 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
     """Run the quaternion UKF on a session with motion (the rig's folder or an interchange one) and compare with
     its reference."""
     from procedures.validation import nominal_calibration, table3_markdown, validate_session, write_outputs
+    from rig.attitude.evaluate import gyro_gaps, session_rows
     from rig.attitude.peers import PEERS
     from rig.errors import RigError
     from rig.commands.sessions import read_any_session
@@ -65,9 +66,11 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
             calibrations["nominal datasheet"] = nominal
         result = validate_session(session, calibrations, peers=() if no_peers else PEERS,
                                   settings=_settings(mag_measurement, no_still_detection))
+        gaps = gyro_gaps(session, session_rows(session))
     except (RigError, ValueError) as e:
         raise _fail(e) from None
-    extra = {"session": str(session_dir), "calibration": str(calibration), "mag_measurement": mag_measurement}
+    extra = {"session": str(session_dir), "calibration": str(calibration), "mag_measurement": mag_measurement,
+             "gyro_gaps": [{"t_s": t0, "seconds": length} for t0, length in gaps]}
     if out:
         doc_out = write_outputs(Path(out), result, session, title=f"Attitude of {session_dir}", extra=extra)
     else:
@@ -75,6 +78,9 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
     click.echo(table3_markdown(result))
     rms = doc_out["rms_deg"]
     click.echo("ours: RMS roll {roll:.3f}, pitch {pitch:.3f}, yaw {yaw:.3f} deg".format(**rms))
+    for t0, length in gaps:
+        click.echo(f"warning: the gyro has no samples for {length:.2f} s from t = {t0:.2f} s: the filters cross it on "
+                   "the last rate, so the attitude after it carries what the table turned there")
     if json_out:
         Path(json_out).write_text(json.dumps(doc_out, indent=2) + "\n")
         click.echo(f"wrote {json_out}")
