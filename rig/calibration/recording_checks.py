@@ -9,7 +9,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from rig.calibration.saturation import Rail, pinned_rows, rail_names, rails
+from rig.calibration.saturation import Rail, pinned_rows, rail_names
 from rig.calibration.segments import Pose, Turn
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
@@ -59,8 +59,8 @@ def _rails_of(session: SessionData, sensor: str) -> tuple[list[Rail], np.ndarray
     """A sensor's rails and the rows that read one (None without either)."""
     if sensor not in session.raw:
         return [], None
-    found = rails(session.raw[sensor])
-    return found, (pinned_rows(session.raw[sensor], found) if found else None)
+    found, hit = pinned_rows(session.raw[sensor])
+    return found, (hit if found else None)
 
 
 def imported_columns(session: SessionData, sensor: str) -> list[str] | None:
@@ -87,11 +87,10 @@ def check_no_stuck_axis(session: SessionData) -> None:
     deviation of 0, an accelerometer's turned into a det(H) = 0 gyro error), and exited 0 with a warning about
     rests or went on to name effects in it. The column is named as the imported file calls it.
     """
-    names = (session.meta.get("imported") or {}).get("columns") or {}
     for sensor, y in session.raw.items():
         for k in range(y.shape[1]):
             v = y[:, k][~np.isnan(y[:, k])]
             if len(v) > 1 and np.ptp(v) == 0:
-                column = names.get(sensor, session.columns.get(sensor, "xyz"))[k]
+                column = (imported_columns(session, sensor) or session.columns.get(sensor, "xyz"))[k]
                 raise CalibrationError(f"{session.source}: {sensor}.{'xyz'[k]} (column '{column}') holds the same "
                                        f"value {v[0]:g} on all {len(v)} rows: a stuck axis cannot be calibrated")

@@ -72,12 +72,14 @@ def rails(y: np.ndarray) -> list[Rail]:
     return out
 
 
-def pinned_rows(y: np.ndarray, found: list[Rail]) -> np.ndarray:
-    """(n,) True where a row of y reads one of its axis's rails: the sample may have been beyond the range."""
+def pinned_rows(y: np.ndarray) -> tuple[list[Rail], np.ndarray]:
+    """The rails of a stream y (n, 3) and (n,) True where a row reads one: the sample may have been beyond the
+    range."""
+    found = rails(y)
     hit = np.zeros(len(y), dtype=bool)
     for r in found:
         hit |= y[:, r.axis] == r.value
-    return hit
+    return found, hit
 
 
 def rail_names(sensor: str, found: list[Rail], columns: str | list[str] | None = None) -> str:

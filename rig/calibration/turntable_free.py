@@ -23,7 +23,7 @@ from rig.calibration.ellipsoid import fit_ellipsoid
 from rig.calibration.levenberg import minimise
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats, scalar_search
 from rig.calibration.result import TriadCalibration
-from rig.calibration.saturation import pinned_rows, rail_names, rails
+from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.static_detect import (
     detect_static_intervals,
     first_samples,
@@ -75,8 +75,7 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
                  window_s: float, columns: list[str] | None = None) -> TriadCalibration:
     """imu_tk's threshold sweep: detect, fit, keep the k with the least cost."""
     best, sweep = None, []
-    found = rails(accel_raw)
-    pinned = pinned_rows(accel_raw, found)
+    found, pinned = pinned_rows(accel_raw)
     saturated = 0
     for k in k_values:
         intervals = detect_static_intervals(t, accel_raw, window_s=window_s, init_static_s=init_static_s, k=k)
@@ -241,10 +240,9 @@ def unclipped_motions(gyro_raw: np.ndarray, intervals: list[tuple[int, int]], mo
     """The motions (indices as `whole_motions`) with no gyro sample at a rail, those with one, and the rails: a
     clipped rate integrates to less than the turn, and a fit that carries gravity across it anyway scales H
     (a gyro clipped at 250 deg/s in hand motions came out 20 % off)."""
-    found = rails(gyro_raw)
+    found, hit = pinned_rows(gyro_raw)
     if not found:
         return motions, [], found
-    hit = pinned_rows(gyro_raw, found)
     clipped = [i for i in motions if hit[intervals[i][1]:intervals[i + 1][0] + 1].any()]
     return [i for i in motions if i not in clipped], clipped, found
 
