@@ -53,7 +53,8 @@ def _raise_once():
     return handler
 
 
-def _stop_signals() -> list[int]:
+def stop_signal_numbers() -> list[int]:
+    """The numbers of STOP_SIGNALS this platform has."""
     return [getattr(signal, name) for name in STOP_SIGNALS if hasattr(signal, name)]
 
 
@@ -64,7 +65,7 @@ def stop_signals_raise():
     stop cannot be cut short. Work that starts processes runs inside it, so they are ended on the way out rather
     than left behind by the default death."""
     handler = _raise_once()
-    before = {sig: signal.signal(sig, handler) for sig in _stop_signals()}
+    before = {sig: signal.signal(sig, handler) for sig in stop_signal_numbers()}
     try:
         yield
     finally:
@@ -79,7 +80,7 @@ def stop_signals_raise_until_exit() -> None:
     put their own handlers over these (`stop_signals_raise`) and give them back after; never given back here,
     since the process ends with its command."""
     handler = _raise_once()
-    for sig in _stop_signals():
+    for sig in stop_signal_numbers():
         signal.signal(sig, handler)
 
 

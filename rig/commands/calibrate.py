@@ -11,7 +11,6 @@ import click
 from rig import exits
 from rig.config import RigConfig, load_config
 from rig.exits import (
-    STOP_SIGNALS,
     CommandError,
     Exit,
     FiniteFloat,
@@ -19,6 +18,7 @@ from rig.exits import (
     code_for,
     command_error,
     plain,
+    stop_signal_numbers,
     stop_signals_raise,
 )
 
@@ -105,8 +105,7 @@ def late_stop_signals():
     import signal
 
     late: list[int] = []
-    sigs = [getattr(signal, name) for name in STOP_SIGNALS if hasattr(signal, name)]
-    before = {sig: signal.signal(sig, lambda signum, frame: late.append(signum)) for sig in sigs}
+    before = {sig: signal.signal(sig, lambda signum, frame: late.append(signum)) for sig in stop_signal_numbers()}
     try:
         yield late
     finally:
