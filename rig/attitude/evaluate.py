@@ -51,6 +51,10 @@ class Row:
 
 
 def session_rows(session: SessionData, align_skip_s: float = ALIGN_SKIP_S) -> SessionRows:
+    if session.meta.get("reference") == "none":
+        raise CalibrationError(f"{session.source}: a recording without a turntable (reference \"none\") has no "
+                               "reference orientation to validate an attitude filter against; rig attitude needs "
+                               "a session whose table recorded its orientation")
     holds = session.hold_rows()
     if not holds:
         raise CalibrationError(f"{session.source}: no 'hold' rows; attitude validation needs a still interval first "

@@ -18,6 +18,7 @@ from paths import SHARED  # noqa: E402
 
 from rig.calibration.recording import calibrate_recording, summed_rate, turn_angle  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
+from rig.io.session_csv import write_session  # noqa: E402
 
 RIG = [sys.executable, "-m", "rig.cli"]
 FERRARIS = SHARED / "data" / "imucal-ferraris"
@@ -114,3 +115,18 @@ def test_calibrate_from_an_imported_ferraris_session_fits_the_faces_as_well_as_i
     assert cal["accel"]["residual_rms"] < 0.0150
     assert cal["gyro"]["unit"] == "rad/s"
     assert np.allclose(np.diag(cal["gyro"]["H"]), np.radians(1.0), rtol=0.05), "deg/s in, rad/s out"
+
+
+def test_attitude_on_a_recording_without_a_turntable_says_there_is_no_reference(tmp_path):
+    """A user who calibrated a hand-held recording may try `rig attitude` on it next: the refusal must say that
+    such a recording has no reference orientation, not that its first pose came too late."""
+    session, _ = generate(seed=3)
+    folder = write_session(session, tmp_path / "rec")
+    done = subprocess.run([*RIG, "calibrate", "--from", str(folder), "--out", str(tmp_path / "c")],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    done = subprocess.run([*RIG, "attitude", str(folder), "--calibration", str(tmp_path / "c" / "calibration.json")],
+                          capture_output=True, text=True)
+    assert done.returncode == 3, done.stderr
+    assert "without a turntable" in done.stderr and "reference orientation" in done.stderr
+    assert "Traceback" not in done.stderr
