@@ -16,8 +16,9 @@ import numpy as np
 
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.candidates import POSE_REGRESSORS, RECORDING_TESTS
-from rig.discrepancy.recording_base import Test, nested_f, resvar, subsample
+from rig.discrepancy.recording_base import Test, subsample
 from rig.effects import EFFECTS
+from rig.regression import nested_f, resvar
 from rig.session_data import SessionData
 from rig.units import DEG
 

@@ -3,8 +3,9 @@ recording can show registers its test in its own module of `rig.discrepancy.cand
 on turntable sessions, so the recording analysis names no effect itself.
 
 Two kinds: an effect seen in a sensor's pose means (`@pose_regressor`) gives a block of regressors, and the blocks
-of all such effects are fitted together, each tested by its nested F test against the model without it; any other
-test (`@recording_test`) reads the session, its calibration and the pose table and returns its `Test`s.
+of all such effects are fitted together, each tested by its nested F test against the model without it
+(`rig.regression`); any other test (`@recording_test`) reads the session, its calibration and the pose table and
+returns its `Test`s.
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy import stats
 
 from rig.effects import effect as vocabulary_entry
 from rig.effects import unit_for
@@ -75,26 +75,6 @@ def recording_test(name: str):
         RECORDING_TESTS[name] = test
         return test
     return register
-
-
-def nested_f(X_full: np.ndarray, X_red: np.ndarray, y: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """p of the nested F test (all response columns pooled), the full model's coefficients and (X^T X)^-1."""
-    n, p_full = X_full.shape
-    coef, *_ = np.linalg.lstsq(X_full, y, rcond=None)
-    red, *_ = np.linalg.lstsq(X_red, y, rcond=None)
-    rss_full = float(np.sum((y - X_full @ coef) ** 2))
-    rss_red = float(np.sum((y - X_red @ red) ** 2))
-    q = (p_full - X_red.shape[1]) * y.shape[1]
-    dof = (n - p_full) * y.shape[1]
-    if dof <= 0 or rss_full <= 0:
-        return 1.0, coef, np.linalg.pinv(X_full.T @ X_full)
-    F = ((rss_red - rss_full) / q) / (rss_full / dof)
-    return float(stats.f.sf(F, q, dof)), coef, np.linalg.pinv(X_full.T @ X_full)
-
-
-def resvar(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-    return np.sum((y - X @ coef) ** 2, axis=0) / max(len(y) - X.shape[1], 1)
 
 
 def subsample(n: int) -> int:

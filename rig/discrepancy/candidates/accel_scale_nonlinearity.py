@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from rig.discrepancy.candidates_base import AXES, Candidate, candidate_test
-from rig.discrepancy.recording_base import Test, nested_f, recording_test, resvar
+from rig.discrepancy.recording_base import Test, recording_test
+from rig.regression import nested_f, resvar
 
 
 @candidate_test("accel_scale_nonlinearity")
