@@ -19,7 +19,7 @@ from rig.attitude.ukf import AttitudeEstimate, UKFSettings, estimate_attitude
 from rig.calibration.lever_arm import compensate
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
-from rig.session_data import SessionData
+from rig.session_data import SessionData, filled
 
 # The first second of the first hold is left to the filters to converge before the frames are aligned.
 ALIGN_SKIP_S = 1.0
@@ -109,6 +109,8 @@ def calibrated_signals(session: SessionData, sensors: dict[str, TriadCalibration
         raise CalibrationError(f"{session.source}: attitude needs {', '.join(missing)} in both session and "
                                f"calibration ({have})")
     u = CalibratedSignals({name: sensors[name].apply(session.raw[name]) for name in session.raw if name in sensors})
+    if sensors["gyro"].g_sensitivity is not None:            # a recording's calibration may carry one
+        u["gyro"] = sensors["gyro"].apply(session.raw["gyro"], sensors["accel"].apply(filled(session.raw["accel"])))
     r = significant_lever_arm(sensors["accel"])
     if r is not None:
         u["accel"] = compensate(session.t, u["accel"], u["gyro"], r)

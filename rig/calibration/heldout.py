@@ -29,7 +29,7 @@ from rig.calibration.recording_fits import carried_errors
 from rig.calibration.result import TriadCalibration
 from rig.calibration.static_detect import moving_variance_norm, window_samples
 from rig.errors import CalibrationError
-from rig.session_data import MoveStream, SessionData
+from rig.session_data import MoveStream, SessionData, filled
 
 FORMAT = "rig-heldout/1"
 REST_WINDOW_S = 0.5
@@ -75,8 +75,12 @@ def scoring_layout(session: SessionData, calibrate: Calibrate = calibrate_record
 
 
 def series(session: SessionData, sensors: dict[str, TriadCalibration]) -> dict[str, np.ndarray]:
-    """Calibrated accelerometer and gyroscope of every row."""
-    return {s: sensors[s].apply(session.raw[s]) for s in ("accel", "gyro") if s in sensors and s in session.raw}
+    """Calibrated accelerometer and gyroscope of every row (the gyro less its g-sensitivity where it has one)."""
+    out = {s: sensors[s].apply(session.raw[s]) for s in ("accel", "gyro") if s in sensors and s in session.raw}
+    if "gyro" in out and sensors["gyro"].g_sensitivity is not None:
+        force = sensors["accel"].apply(filled(session.raw["accel"]))
+        out["gyro"] = sensors["gyro"].apply(session.raw["gyro"], force)
+    return out
 
 
 def pose_errors(accel: np.ndarray, rows: np.ndarray, g: float) -> tuple[float, float]:

@@ -28,6 +28,7 @@ from rig.calibration.recording_fits import (
     gyro_rotation_fit,
     turn_angle,
 )
+from rig.calibration.g_sensitivity import with_g_sensitivity
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.turntable_free import (
@@ -52,7 +53,8 @@ class RecordingCalibration:
 
 
 def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
-                        carry_sd: float | None = None, gyro_start: np.ndarray | None = None) -> RecordingCalibration:
+                        carry_sd: float | None = None, gyro_start: np.ndarray | None = None,
+                        g_sensitivity: bool = False) -> RecordingCalibration:
     """Accelerometer (and magnetometer) from the static poses, gyroscope from turns and motions between poses.
 
     leave_out: {"poses": [i, ...], "turns": [k, ...], "carries": [c, ...]} not used in the fit.
@@ -60,7 +62,21 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
     say it too (the twin's replicas take the recording's choice rather than choosing again).
     gyro_start: where the gyro's fit starts instead of its own coarse search (a twin's replica starts at its
     recording's H: the same optimum, to 1e-10, in a third less time).
+    g_sensitivity: take the gyro's g-sensitivity into its calibration where the poses show it
+    (`rig.calibration.g_sensitivity`; what `rig calibrate` writes). The twin keeps the linear model, and names it.
     """
+    rec = _calibrate_linear(session, leave_out, carry_sd, gyro_start)
+    if g_sensitivity and "gyro" in rec.sensors:
+        left = set((leave_out or {}).get("poses", ()))
+        gyro = with_g_sensitivity(session, rec.sensors, [p.rows for i, p in enumerate(rec.poses) if i not in left],
+                                  lambda s: _calibrate_linear(s, leave_out, carry_sd, gyro_start).sensors["gyro"])
+        if gyro is not None:
+            rec.sensors["gyro"] = gyro
+    return rec
+
+
+def _calibrate_linear(session: SessionData, leave_out: dict | None, carry_sd: float | None,
+                      gyro_start: np.ndarray | None) -> RecordingCalibration:
     check_no_stuck_axis(session)
     poses, turns = segments_of(session)
     if not poses:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import rig
-from rig.calibration.result import TriadCalibration
+from rig.calibration.result import GSensitivity, TriadCalibration
 from rig.errors import RigError
 from rig.io.atomic import write_text_atomic
 from rig.units import SENSOR_UNITS
@@ -141,6 +141,12 @@ def _check_sensor(path: Path, key: str, entry) -> None:
         if entry.get(field) is not None:
             if (_array(path, f"{key}.{field}", entry[field], shape) < 0).any():
                 raise CalibrationFileError(path, "standard deviations cannot be negative", f"{key}.{field}")
+    g = entry.get("g_sensitivity")
+    if g is not None:
+        if not isinstance(g, dict) or "K" not in g or "f_ref_mps2" not in g:
+            raise CalibrationFileError(path, "must be an object with K and f_ref_mps2", f"{key}.g_sensitivity")
+        _array(path, f"{key}.g_sensitivity.K", g["K"], (3, 3))
+        _array(path, f"{key}.g_sensitivity.f_ref_mps2", g["f_ref_mps2"], (3,))
 
 
 def _array(path: Path, key: str, value, shape: tuple[int, ...]) -> np.ndarray:
@@ -170,12 +176,23 @@ def triads_from_calibration(doc: dict) -> dict[str, TriadCalibration]:
     """The sensors of a validated calibration document as `TriadCalibration` objects (to apply them)."""
     out = {}
     for name, e in doc["sensors"].items():
-        known = {"unit", "B", "H", "B_std", "H_std", "method", "residual_rms", "iterations", "converged", "warnings"}
+        known = {"unit", "B", "H", "B_std", "H_std", "method", "residual_rms", "iterations", "converged", "warnings",
+                 "g_sensitivity"}
         out[name] = TriadCalibration(
             B=np.array(e["B"], dtype=float), H=np.array(e["H"], dtype=float), method=e.get("method", "unknown"),
             residual_rms=float(e["residual_rms"]) if e.get("residual_rms") is not None else float("nan"),
             iterations=int(e.get("iterations", 0)), converged=bool(e.get("converged", True)),
             B_std=np.array(e["B_std"], dtype=float) if e.get("B_std") is not None else None,
             H_std=np.array(e["H_std"], dtype=float) if e.get("H_std") is not None else None,
-            warnings=list(e.get("warnings", [])), extra={k: v for k, v in e.items() if k not in known})
+            warnings=list(e.get("warnings", [])), extra={k: v for k, v in e.items() if k not in known},
+            g_sensitivity=_g_sensitivity(e.get("g_sensitivity")))
     return out
+
+
+def _g_sensitivity(g: dict | None) -> GSensitivity | None:
+    if g is None:
+        return None
+    nan = float("nan")
+    return GSensitivity(K=np.array(g["K"], dtype=float), f_ref=np.array(g["f_ref_mps2"], dtype=float),
+                        p_value=float(g.get("p_value", nan)), deg_s_per_g=float(g.get("deg_s_per_g", nan)),
+                        poses=int(g.get("poses", 0)))

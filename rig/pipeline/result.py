@@ -54,4 +54,8 @@ def summary_lines(result: SessionCalibration) -> list[str]:
             verdict += f", p = {cal.extra.get('lever_arm_p_value', float('nan')):.2g}"
             lines.append(f"  lever arm r = {vec(cal.extra['lever_arm_m'])} m +/- {vec(cal.extra['lever_arm_std_m'])}"
                          f" ({verdict}, {cal.extra.get('lever_arm_rows')} move rows)")
+        if cal.g_sensitivity is not None:
+            g = cal.g_sensitivity
+            lines.append(f"  g-sensitivity {g.deg_s_per_g:.3g} deg/s per g (p = {g.p_value:.2g}, {g.poses} poses): "
+                         "taken into the calibration, g_sensitivity in calibration.json")
     return lines

@@ -114,7 +114,7 @@ def refused_naming_lost_holds(session: SessionData, settle_s: float, excluded: d
 
 def calibrate_without_table(session: SessionData) -> SessionCalibration:
     """A recording without a turntable (rig.calibration.recording): its poses, turns and motions."""
-    rec = calibrate_recording(session)
+    rec = calibrate_recording(session, g_sensitivity=True)
     warnings = list(rec.warnings)
     for name, cal in rec.sensors.items():
         check_result(name, cal, reference_norm(session, name), warnings)
