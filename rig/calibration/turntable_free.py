@@ -23,6 +23,7 @@ from rig.calibration.ellipsoid import fit_ellipsoid
 from rig.calibration.levenberg import minimise
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats, scalar_search
 from rig.calibration.result import TriadCalibration
+from rig.calibration.sampling import refuse_coarse_motions
 from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.static_detect import (
     detect_static_intervals,
@@ -192,6 +193,9 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
         return _rotate_inverse(q, g0) - g1        # R^T g0 - g1
 
     s = _gyro_scale(moves, B, g0, g1)
+    rest = gyro_raw[:initial_interval(t, init_static_s)]
+    refuse_coarse_motions(None, "the unit", moves, B, _scale_bound(moves, B, g0, g1) * np.eye(3),
+                          rest.std(axis=0, ddof=1), 1.0 / float(np.median(np.diff(t))))
     fun = lambda x: residuals(x.reshape(3, 3) * s, ms).ravel()
 
     def jac(x: np.ndarray, step: float = 1e-7) -> np.ndarray:
@@ -252,6 +256,14 @@ def _rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     w, u = q[..., :1], -q[..., 1:]               # conj(q) rotates by R^T
     t = 2.0 * np.cross(u, v)
     return v + w * t + np.cross(u, t)
+
+
+def _scale_bound(moves: list[MoveStream], B: np.ndarray, g0: np.ndarray, g1: np.ndarray) -> float:
+    """A lower bound of the gyro's scale that no integration enters: a motion turns at least the angle between
+    the gravity directions it joins, and at most the scale times its raw rate's path."""
+    path = np.array([np.sum(np.linalg.norm(m.y[1:] - B, axis=1) * np.diff(m.t)) for m in moves])
+    turned = np.arccos(np.clip(np.sum(g0 * g1, axis=1), -1.0, 1.0))
+    return float(np.max(turned / np.where(path > 0, path, np.inf)))
 
 
 def _gyro_scale(moves: list[MoveStream], B: np.ndarray, g0: np.ndarray, g1: np.ndarray, stride: int = 4) -> float:

@@ -62,7 +62,7 @@ def write_foreign_session(folder: Path, *, rate=100.0, hold_s=3.0, n=12, sensors
             m = int(round(T * rate))
             tau = (np.arange(m) + 1) / (m + 1)
             t.append(now + np.arange(m) / rate); ang.append(sched[j] + (0.5 - 0.5 * np.cos(np.pi * tau))[:, None] * d)
-            rate_dps.append((0.5 * np.pi * np.sin(np.pi * tau) / (T + 1 / rate))[:, None] * d)
+            rate_dps.append((0.5 * np.pi * np.sin(np.pi * tau) * rate / (m + 1))[:, None] * d)
             phase += ["move"] * m; step += [j] * m
             now += m / rate
     t, ang, rate_dps = np.concatenate(t), np.concatenate(ang), np.concatenate(rate_dps)

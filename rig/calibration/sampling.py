@@ -1,0 +1,86 @@
+"""Whether a gyro's samples are dense enough to integrate its motions at all.
+
+The rate between two samples is unknown; the integration assumes it (a cubic through four samples, or a mean
+with the coning term). Where a motion turns tens of degrees between samples, that assumption is off by more
+than the rate noise leaves in the motion, the fit explains the difference with a wrong H, and its stated
+uncertainty (scaled by the same misfit) may even look modest: a turntable session logged at 1.5 Hz gave an H
+thousands of times too large with exit 0. The error is measured on the data themselves by step doubling:
+each motion integrated from every sample and from every second one; a scheme of order p is off by
+d / (2^p - 1) at the finer step, p = 2 taken here (a corner of the rate profile, or a rate axis that turns,
+leaves the schemes second order). The rate noise's own share of d (the angle random walk of the motion) is
+taken out, and what is left is set against that noise: more than MARGIN times it, H cannot be trusted to its
+stated uncertainty and the recording is refused, naming the rotation between samples that could be integrated
+(the error grows as the square of the step, so the limit is the worst step times sqrt(MARGIN * noise / error)).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rig.calibration.gyro import MoveSet, decimated, integrated_quats
+from rig.errors import CalibrationError
+from rig.quaternions import quat_conjugate, quat_multiply, rotvec_from_quat
+from rig.session_data import MoveStream
+
+ORDER = 2          # the schemes' order where the rate profile has corners or its axis turns
+MARGIN = 5.0       # integration error per motion allowed, in units of the rate noise's angle per motion
+# Where the misfit shows, the fit's stated uncertainty grows with it and covers the error; beyond this, H absorbed
+# it. Measured on synthetic sessions (tests/io, tests/recordings): right within 2 of their standard deviations at
+# up to 3.3 times (trapezoid moves with corners at 50 Hz, cosine moves at 3-3.5 Hz, hand motions at 3 Hz), wrong by
+# 4-9 of them from 5.6 times (cosine moves at 2-2.5 Hz), thousands of times at 24 (1.5 Hz).
+
+
+@dataclass
+class Coarseness:
+    """What step doubling says of a set of motions (angles in rad, rotation between samples in deg)."""
+
+    worst_deg: float        # the largest rotation between two consecutive samples
+    error_rad: float        # RMS integration error per motion at the recorded step (noise taken out)
+    noise_rad: float        # RMS angle random walk of the rate noise per motion
+    limit_deg: float        # the rotation between samples at which the error would be MARGIN times the noise
+    motions: int
+
+    @property
+    def too_coarse(self) -> bool:
+        return self.error_rad > MARGIN * self.noise_rad
+
+    def refusal(self, what: str, rate_hz: float | None) -> str:
+        """One sentence for the refusal; `what`: 'the table' or 'the unit'."""
+        at = f" (samples at {rate_hz:.3g} Hz)" if rate_hz else ""
+        return (f"{what} turns up to {self.worst_deg:.3g} deg between two gyro samples{at}; integrated across "
+                f"{self.motions} motions that leaves {1e3 * self.error_rad:.3g} mrad per motion, "
+                f"{self.error_rad / self.noise_rad:.3g} times the rate noise's {1e3 * self.noise_rad:.3g} mrad "
+                f"(found by integrating every second sample); at most about {self.limit_deg:.2g} deg between "
+                f"samples can be integrated here: sample faster or move slower")
+
+
+def coarseness(moves: list[MoveStream], B: np.ndarray, H: np.ndarray, rate_noise_counts: np.ndarray,
+               samples: str = "point") -> Coarseness:
+    """Step doubling of every motion at a calibration H (a nominal one is enough: the comparison is relative).
+
+    rate_noise_counts: the per-sample white noise of each raw axis (from the rests)."""
+    H = np.asarray(H, dtype=float)
+    full = integrated_quats(H, MoveSet.build(moves, B, samples))
+    half = integrated_quats(H, MoveSet.build(decimated(moves, 2), B, samples))
+    d = np.linalg.norm(rotvec_from_quat(quat_multiply(quat_conjugate(full), half)), axis=-1)
+    noise_rate = float(np.trace(H @ np.diag(np.asarray(rate_noise_counts, float) ** 2) @ H.T))
+    walk = noise_rate * np.array([np.sum(np.diff(m.t) ** 2) for m in moves])
+    excess = max(float(np.mean(d ** 2) - np.mean(walk)), 0.0)
+    error = np.sqrt(excess) / (2 ** ORDER - 1)
+    noise = float(np.sqrt(np.mean(walk)))
+    worst = max(float(np.max(np.linalg.norm((m.y[1:] - B) @ H.T, axis=1) * np.diff(m.t))) for m in moves)
+    worst_deg = float(np.degrees(worst))
+    limit = worst_deg * (MARGIN * noise / error) ** (1.0 / ORDER) if error > 0 else float("inf")
+    return Coarseness(worst_deg, float(error), noise, limit, len(moves))
+
+
+def refuse_coarse_motions(source: str | None, what: str, moves: list[MoveStream], B: np.ndarray, H: np.ndarray,
+                          rate_noise_counts: np.ndarray, rate_hz: float | None) -> Coarseness:
+    """Raise CalibrationError when the motions cannot be integrated (Coarseness.too_coarse), naming the recording
+    (`source`; None where the caller names it)."""
+    found = coarseness(moves, B, H, rate_noise_counts)
+    if found.too_coarse:
+        raise CalibrationError(f"{source + ': ' if source else ''}gyro: {found.refusal(what, rate_hz)}")
+    return found
