@@ -33,7 +33,7 @@ def fit_g_sensitivity(session: SessionData, sensors: dict[str, TriadCalibration]
     significant."""
     if "gyro" not in sensors or "accel" not in sensors:
         return None
-    pose_rows = still_for_the_gyro(session, pose_rows)
+    pose_rows = [r for r, still in zip(pose_rows, still_for_the_gyro(session, pose_rows)) if still]
     if len(pose_rows) < 5 + MIN_DOF:
         return None
     accel, gyro = sensors["accel"], sensors["gyro"]
@@ -51,12 +51,12 @@ def fit_g_sensitivity(session: SessionData, sensors: dict[str, TriadCalibration]
                         deg_s_per_g=float(np.linalg.svd(G, compute_uv=False)[0] * STANDARD_GRAVITY / DEG))
 
 
-def still_for_the_gyro(session: SessionData, pose_rows: list[np.ndarray]) -> list[np.ndarray]:
-    """The poses whose gyro samples scatter no more than STILL_K times the median pose's: a turn about the
+def still_for_the_gyro(session: SessionData, pose_rows: list[np.ndarray]) -> np.ndarray:
+    """Which poses' gyro samples scatter no more than STILL_K times the median pose's: a turn about the
     vertical between two poses leaves the accelerometer still, so a detector that watches it (imu_tk's) takes both
     poses and the turn for one, whose mean rate is the turn's, not the bias at that specific force."""
     spread = np.array([np.linalg.norm(np.nanvar(session.raw["gyro"][r], axis=0)) for r in pose_rows])
-    return [r for r, s in zip(pose_rows, spread) if s <= STILL_K * np.median(spread)]
+    return spread <= STILL_K * np.median(spread)
 
 
 def without_g_sensitivity(session: SessionData, accel: TriadCalibration, g: GSensitivity) -> SessionData:

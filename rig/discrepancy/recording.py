@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.calibration.g_sensitivity import still_for_the_gyro
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.candidates import POSE_REGRESSORS, RECORDING_TESTS
 from rig.discrepancy.recording_base import Test, subsample
@@ -26,7 +27,9 @@ ALPHA = 0.01
 
 
 def pose_table(session: SessionData, rec: RecordingCalibration) -> dict[str, np.ndarray]:
-    """Per static pose: mid time, calibrated specific force (m/s^2) and gyro mean (rad/s)."""
+    """Per static pose: mid time, calibrated specific force (m/s^2), gyro mean (rad/s) and whether the gyro saw it
+    still (`still_for_the_gyro`: a turn about the vertical that the accelerometer's detector took for part of a
+    pose is not a bias at that specific force, and one such pose hid a g-sensitivity of 0.1 deg/s per g)."""
     acc, gyr = rec.sensors["accel"], rec.sensors.get("gyro")
     rows = [p.rows for p in rec.poses]
     out = {"t": np.array([session.t[r].mean() for r in rows]),
@@ -34,6 +37,7 @@ def pose_table(session: SessionData, rec: RecordingCalibration) -> dict[str, np.
            "face": np.array([p.up is not None for p in rec.poses])}
     if gyr is not None:
         out["w"] = np.array([gyr.apply(_mean(session.raw["gyro"][r])[None])[0] for r in rows])
+        out["gyro_still"] = still_for_the_gyro(session, rows)
     return out
 
 
@@ -42,6 +46,7 @@ def gyro_pose_tests(table: dict) -> list[Test]:
     with too few poses for every block, those of the highest rank are left out."""
     if "w" not in table:
         return []
+    table = {key: v[table["gyro_still"]] for key, v in table.items()}
     k = len(table["t"])
     ones = np.ones((k, 1))
     regressors = sorted(POSE_REGRESSORS.items(), key=lambda item: item[1].rank)
