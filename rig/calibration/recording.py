@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rig.calibration.g_sensitivity import with_g_sensitivity
 from rig.calibration.recording_checks import (
     check_no_stuck_axis,
     imported_columns,
@@ -28,7 +29,6 @@ from rig.calibration.recording_fits import (
     gyro_rotation_fit,
     turn_angle,
 )
-from rig.calibration.g_sensitivity import with_g_sensitivity
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.turntable_free import (
@@ -37,6 +37,7 @@ from rig.calibration.turntable_free import (
     calibrate_turntable_free,
     fit_accel_upper,
 )
+from rig.calibration.uncertainty import inherited_frame_cov
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream, SessionData
 
@@ -197,6 +198,9 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
     if info["rank"] < 9:
         raise CalibrationError(f"gyro: the turns and motions left in the fit determine only {info['rank']} of H's 9 "
                                "entries")
+    inherited = inherited_frame_cov(accel, H) if carry_terms else None      # motions tie it to the accel's frame
+    if inherited is not None:
+        cov = cov + inherited
     angle_err = [np.degrees(turn_angle(H, summed_rate(session, t.rows, B), t.axis) - t.angle_rad) for t in turns]
     fitted = info["moveset"] if not skip_carries else None          # the fit's motions are all of them
     carry_err = np.degrees(carried_errors(H, B, streams, g[[i for i, _ in carries]], g[[j for _, j in carries]],

@@ -130,3 +130,18 @@ def test_attitude_on_a_recording_without_a_turntable_says_there_is_no_reference(
     assert done.returncode == 3, done.stderr
     assert "without a turntable" in done.stderr and "reference orientation" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_the_gyros_stated_deviation_covers_the_frame_it_inherits_from_the_faces():
+    """A hand-held session's faces fix the accelerometer's frame only to their tilt priors, and the motions tie the
+    gyro to that frame: its off-diagonal entries are off by that rotation. Stated without it, 12 synthetic
+    recordings had off-diagonal errors 2.5 times their deviation (RMS z); the accelerometer's own are honest."""
+    diagonal, off = [], []
+    for seed in range(12):
+        session, truth = generate(seed)
+        gyro = calibrate_recording(session).sensors["gyro"]
+        z = (gyro.H - truth.gyro_H) / gyro.H_std
+        diagonal += list(np.diag(z))
+        off += list(z[~np.eye(3, dtype=bool)])
+    assert np.sqrt(np.mean(np.square(off))) < 1.5
+    assert np.sqrt(np.mean(np.square(diagonal))) < 1.5
