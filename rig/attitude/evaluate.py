@@ -17,6 +17,7 @@ from rig.attitude.peers import run_peer
 from rig.attitude.timing import carried_forward, delayed, estimate_gyro_delay, estimate_vector_delay
 from rig.attitude.ukf import AttitudeEstimate, UKFSettings, estimate_attitude
 from rig.calibration.lever_arm import compensate
+from rig.calibration.reference_convention import refuse_conjugated_reference
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.session_data import SessionData, filled
@@ -55,6 +56,8 @@ def session_rows(session: SessionData, align_skip_s: float = ALIGN_SKIP_S) -> Se
         raise CalibrationError(f"{session.source}: a recording without a turntable (reference \"none\") has no "
                                "reference orientation to validate an attitude filter against; rig attitude needs "
                                "a session whose table recorded its orientation")
+    if "accel" in session.raw:
+        refuse_conjugated_reference(session, session.holds("accel"))
     holds = session.hold_rows()
     if not holds:
         raise CalibrationError(f"{session.source}: no 'hold' rows; attitude validation needs a still interval first "

@@ -25,7 +25,10 @@ from rig.quaternions import quat_conjugate, quat_multiply, rotvec_from_quat
 from rig.session_data import MoveStream
 
 ORDER = 2          # the schemes' order where the rate profile has corners or its axis turns
-MARGIN = 5.0       # integration error per motion allowed, in units of the rate noise's angle per motion
+MARGIN = 5.0       # integration error per motion allowed, in units of the rate noise's angle per motion ...
+REL_FLOOR = 2e-5   # ... or of this share of the motion's angle: a nearly noiseless gyro (an independent simulator's
+# noise-free session: 0.0003 mrad of noise) was refused for 0.02 mrad per 90 deg motion, an H error of 1e-5, ten
+# times below the best gyro H this rig resolves (0.02 %, README "Planning a session")
 # Where the misfit shows, the fit's stated uncertainty grows with it and covers the error; beyond this, H absorbed
 # it. Measured on synthetic sessions (tests/io, tests/recordings): right within 2 of their standard deviations at
 # up to 3.3 times (trapezoid moves with corners at 50 Hz, cosine moves at 3-3.5 Hz, hand motions at 3 Hz), wrong by
@@ -39,19 +42,25 @@ class Coarseness:
     worst_deg: float        # the largest rotation between two consecutive samples
     error_rad: float        # RMS integration error per motion at the recorded step (noise taken out)
     noise_rad: float        # RMS angle random walk of the rate noise per motion
-    limit_deg: float        # the rotation between samples at which the error would be MARGIN times the noise
+    limit_deg: float        # the rotation between samples at which the error would be MARGIN times the allowance
     motions: int
+    angle_rad: float = 0.0  # RMS angle the motions turn through (their paths)
+
+    @property
+    def allowance_rad(self) -> float:
+        return max(self.noise_rad, REL_FLOOR * self.angle_rad)
 
     @property
     def too_coarse(self) -> bool:
-        return self.error_rad > MARGIN * self.noise_rad
+        return self.error_rad > MARGIN * self.allowance_rad
 
     def refusal(self, what: str, rate_hz: float | None) -> str:
         """One sentence for the refusal; `what`: 'the table' or 'the unit'."""
         at = f" (samples at {rate_hz:.3g} Hz)" if rate_hz else ""
         return (f"{what} turns up to {self.worst_deg:.3g} deg between two gyro samples{at}; integrated across "
                 f"{self.motions} motions that leaves {1e3 * self.error_rad:.3g} mrad per motion, "
-                f"{self.error_rad / self.noise_rad:.3g} times the rate noise's {1e3 * self.noise_rad:.3g} mrad "
+                f"{self.error_rad / self.allowance_rad:.3g} times the rate noise's {1e3 * self.noise_rad:.3g} mrad "
+                f"or {REL_FLOOR:g} of the motion, the larger "
                 f"(found by integrating every second sample); at most about {self.limit_deg:.2g} deg between "
                 f"samples can be integrated here: sample faster or move slower")
 
@@ -70,10 +79,13 @@ def coarseness(moves: list[MoveStream], B: np.ndarray, H: np.ndarray, rate_noise
     excess = max(float(np.mean(d ** 2) - np.mean(walk)), 0.0)
     error = np.sqrt(excess) / (2 ** ORDER - 1)
     noise = float(np.sqrt(np.mean(walk)))
-    worst = max(float(np.max(np.linalg.norm((m.y[1:] - B) @ H.T, axis=1) * np.diff(m.t))) for m in moves)
-    worst_deg = float(np.degrees(worst))
-    limit = worst_deg * (MARGIN * noise / error) ** (1.0 / ORDER) if error > 0 else float("inf")
-    return Coarseness(worst_deg, float(error), noise, limit, len(moves))
+    steps = [np.linalg.norm((m.y[1:] - B) @ H.T, axis=1) * np.diff(m.t) for m in moves]
+    worst_deg = float(np.degrees(max(float(np.max(step)) for step in steps)))
+    path = float(np.sqrt(np.mean([np.sum(step) ** 2 for step in steps])))      # a full turn's net rotation is 0
+    found = Coarseness(worst_deg, float(error), noise, float("inf"), len(moves), path)
+    if error > 0:
+        found.limit_deg = worst_deg * (MARGIN * found.allowance_rad / error) ** (1.0 / ORDER)
+    return found
 
 
 def refuse_coarse_motions(source: str | None, what: str, moves: list[MoveStream], B: np.ndarray, H: np.ndarray,

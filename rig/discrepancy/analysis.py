@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from rig.calibration.reference_convention import refuse_conjugated_reference
 from rig.discrepancy.candidates import CANDIDATES, library
 from rig.discrepancy.linear import TriadFit, fit_baseline
 from rig.discrepancy.observations import observations
@@ -66,6 +67,8 @@ def analyze(session: SessionData, *, replay: Callable[..., dict] | None = None, 
     """Fit, test every candidate, accept what passes, extend and refit; the report as a dict.
     With `plots_dir`, residual-vs-covariate plots before and after each finding are written there."""
     t0 = time.perf_counter()
+    if "accel" in session.raw:
+        refuse_conjugated_reference(session, session.holds("accel"))
     states, skipped = build_states(session)
     first = stepwise(states)
     findings, changes, extended = [], {}, {}

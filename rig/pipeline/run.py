@@ -19,6 +19,7 @@ import numpy as np
 from rig.calibration import turntable_free
 from rig.calibration.recording import calibrate_recording
 from rig.calibration.recording_checks import check_no_stuck_axis
+from rig.calibration.reference_convention import refuse_conjugated_reference
 from rig.calibration.result import TriadCalibration
 from rig.calibration.threads import one_blas_thread
 from rig.errors import CalibrationError
@@ -69,6 +70,8 @@ def _calibrate_session(session: SessionData, *, method: str, settle_s: float, gy
     for step, reason in sorted(excluded.items()):
         warnings.append(f"step {step}: excluded, {reason}")
     holds = {s: without_steps(h, excluded) for s, h in holds.items()}
+    if "accel" in holds:
+        refuse_conjugated_reference(session, holds["accel"])
 
     sensors: dict[str, TriadCalibration] = {}
     with refused_naming_lost_holds(session, settle_s, excluded):

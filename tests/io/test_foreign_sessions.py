@@ -188,3 +188,27 @@ def test_a_refusal_for_too_few_holds_or_moves_says_why(tmp_path, what):
         assert "12 of 12 holds are shorter than the settling time 0.5 s (--settle-s)" in res.stderr
     else:
         assert "no 'move' rows" in res.stderr
+
+
+def test_quaternions_written_world_to_fixture_are_named(tmp_path):
+    """Another tool's reference written the other way round (world -> fixture, the conjugate): the calibration had
+    blamed the schedule ("the reference directions are coplanar"), the discrepancy analysis said the linear model
+    explains everything (exit 0) and the attitude comparison gave 120 deg RMS (exit 0). Each now says which way
+    the quaternions turn and what to do, before anything is fitted to them."""
+    folder = tmp_path / "s"
+    write_foreign_session(folder)
+    lines = (folder / "samples.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    vector = [head.index(c) for c in ("qx", "qy", "qz")]
+    rows = [line.split(",") for line in lines[1:]]
+    for row in rows:
+        for i in vector:
+            row[i] = row[i][1:] if row[i].startswith("-") else "-" + row[i]
+    (folder / "samples.csv").write_text("\n".join([lines[0]] + [",".join(r) for r in rows]) + "\n")
+
+    res, cal = calibrate(folder, tmp_path / "c")
+    assert res.returncode == 3 and cal is None, res.stderr
+    assert "world -> fixture" in res.stderr and "negate qx, qy and qz" in res.stderr, res.stderr
+    res = subprocess.run([*RIG, "discrepancy", str(folder), "--json", str(tmp_path / "d.json")], capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 3 and "world -> fixture" in res.stderr and "Traceback" not in res.stderr, res.stderr
