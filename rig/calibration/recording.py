@@ -29,6 +29,7 @@ from rig.calibration.recording_fits import (
     gyro_rotation_fit,
     turn_angle,
 )
+from rig.calibration.recording_mag import calibrate_recording_mag
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.turntable_free import (
@@ -40,6 +41,9 @@ from rig.calibration.turntable_free import (
 from rig.calibration.uncertainty import inherited_frame_cov
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream, SessionData
+
+
+MIN_AXIS_SD = float(np.radians(0.1))      # a turn's axis from the gyro, at best (rad)
 
 
 @dataclass
@@ -92,8 +96,6 @@ def _calibrate_linear(session: SessionData, leave_out: dict | None, carry_sd: fl
     sensors, warnings = {}, [w for w, _ in saturated]
     with refused_for_saturation(session, [why for _, why in saturated]):
         sensors["accel"] = _vector_fit(session, "accel", use_poses, session.gravity)
-        if "mag" in session.raw and session.field_uT:
-            sensors["mag"] = _vector_fit(session, "mag", use_poses, float(session.field_uT))
     carries = _carries(session, poses)
     if "gyro" in session.raw:
         turns, carries, clipped = unclipped_turns_and_motions(session, poses, turns, carries)
@@ -103,7 +105,32 @@ def _calibrate_linear(session: SessionData, leave_out: dict | None, carry_sd: fl
                                              carry_sd, gyro_start)
         if not used["turns"] and not used["carries"]:
             warnings.append("gyro: no turn of known angle and no whole motion between poses")
+    if "mag" in session.raw:
+        left = [p.rows for i, p in enumerate(poses) if i in set(leave_out.get("poses", ()))]
+        sensors["mag"], mag_warnings = _mag(session, sensors["accel"], use_poses, _turn_axes(session, sensors, turns),
+                                            np.concatenate(left) if left else None)
+        warnings += mag_warnings
     return RecordingCalibration(sensors, poses, turns, carries, warnings)
+
+
+def _turn_axes(session: SessionData, sensors: dict, turns: list[Turn]) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Each turn's rows, its axis in the accelerometer's frame and that axis's standard deviation (rad): the
+    calibrated gyro's summed rate, to within the gyro frame's own (a hand's axis is not the nominal one), else
+    the nominal axis to within the turn's tilt prior."""
+    gyro = sensors.get("gyro")
+    if gyro is None or gyro.H_std is None:
+        return [(t.rows, np.asarray(t.axis, float), t.axis_sd_rad) for t in turns]
+    off = ~np.eye(3, dtype=bool)
+    sd = max(float(np.sqrt(np.mean(gyro.H_std[off] ** 2)) / np.abs(np.diag(gyro.H)).mean()), MIN_AXIS_SD)
+    return [(t.rows, gyro.H @ summed_rate(session, t.rows, gyro.B), sd) for t in turns]
+
+
+def _mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list,
+         left_out_rows: np.ndarray | None) -> tuple[TriadCalibration, list[str]]:
+    if not session.field_uT:
+        raise CalibrationError(f"{session.source}: a magnetometer is calibrated to the local field magnitude, and the "
+                               "session has none (field_uT)")
+    return calibrate_recording_mag(session, accel, poses, float(session.field_uT), turns, left_out_rows)
 
 
 def pose_stats(session: SessionData, sensor: str, poses: list[Pose]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -261,6 +288,10 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     intervals = sensors["accel"].extra["intervals"]
     index = np.flatnonzero(rows)
     poses = [Pose(f"static {k}", index[a:b + 1], None, DEFAULT_TILT_SD_DEG) for k, (a, b) in enumerate(intervals)]
-    return RecordingCalibration(dict(sensors), poses, [], [(i, i + 1) for i in sensors["gyro"].extra["whole_motions"]],
-                                ["no segments: static intervals detected in the data (imu_tk's turntable-free "
-                                 "method; the record must start with a long rest)"])
+    sensors, warnings = dict(sensors), ["no segments: static intervals detected in the data (imu_tk's turntable-free "
+                                        "method; the record must start with a long rest)"]
+    if "mag" in session.raw:
+        sensors["mag"], mag_warnings = _mag(session, sensors["accel"], poses, [], None)
+        warnings += mag_warnings
+    return RecordingCalibration(sensors, poses, [], [(i, i + 1) for i in sensors["gyro"].extra["whole_motions"]],
+                                warnings)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.io.recording import recording_session
+from mag_synth import MagTruth, mag_truth, readings
 from rig.rotations import axis_angle_matrix, rotvec_from_matrix
 from rig.session_data import SessionData
 
@@ -28,6 +29,7 @@ class Truth:
     gyro_B: np.ndarray
     face_tilt_deg: np.ndarray
     turn_angle_deg: np.ndarray
+    mag: MagTruth | None = None
 
 
 def attitude_with_up(up: np.ndarray) -> np.ndarray:
@@ -44,9 +46,11 @@ def attitude_with_up(up: np.ndarray) -> np.ndarray:
 def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, turn_err_deg: float = 1.5,
              wobble_deg: float = 1.0, accel_noise: float = 1.0, gyro_noise: float = 1.0,
              face_s: float = 5.0, move_s: float = 2.0, shake_deg: float = 0.0,
-             shake_hz: float = 2.0) -> tuple[SessionData, Truth]:
+             shake_hz: float = 2.0, mag_per_uT: float | None = None) -> tuple[SessionData, Truth]:
     """`shake_deg`: the motions between faces also swing by up to this angle about an axis that turns round at
-    `shake_hz` (a hand's motion, whose rate axis never stays put), starting and ending still."""
+    `shake_hz` (a hand's motion, whose rate axis never stays put), starting and ending still. `mag_per_uT`: add a
+    magnetometer in these raw units per uT (`mag_synth`; 1.0 for a column in uT), drawn after everything else so
+    the accelerometer and gyro are those of the same seed without it."""
     rng = np.random.default_rng(seed)
     accel_H = (np.eye(3) + np.diag(rng.uniform(-0.03, 0.03, 3)) + rng.uniform(-0.01, 0.01, (3, 3)) * (1 - np.eye(3))) \
         * (G / 2048.0)
@@ -132,9 +136,13 @@ def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, tu
     f = np.einsum("nji,j->ni", Rs, np.array([0.0, 0.0, G]))
     accel = np.round(f @ np.linalg.inv(accel_H).T + accel_B + rng.normal(0, accel_noise, f.shape))
     gyro = np.round(ws @ np.linalg.inv(gyro_H).T + gyro_B + rng.normal(0, gyro_noise, ws.shape))
-    session = recording_session(t, {"accel": accel, "gyro": gyro}, units={"accel": "counts", "gyro": "counts"},
+    raw, units, mag = {"accel": accel, "gyro": gyro}, {"accel": "counts", "gyro": "counts"}, None
+    if mag_per_uT is not None:
+        mag = mag_truth(rng, per_uT=mag_per_uT)
+        raw["mag"], units["mag"] = readings(Rs, mag, rng), "uT" if mag_per_uT == 1.0 else "counts"
+    session = recording_session(t, raw, units=units, field_uT=mag.field_uT if mag else None,
                                 source=f"<synthetic ferraris {seed}>", segments=segments, sample_rate_hz=rate_hz)
-    return session, Truth(accel_H, accel_B, gyro_H, gyro_B, np.array(tilts), np.array(turn_angles))
+    return session, Truth(accel_H, accel_B, gyro_H, gyro_B, np.array(tilts), np.array(turn_angles), mag)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -50,7 +50,7 @@ def recording(seed: int, *, rate: float = 50.0, poses: int = 14, rest_s: float =
     Ba = rng.normal(0, 0.1, 3)
     accel = np.linalg.solve(Ha, force.T).T + Ba + rng.normal(0, 0.01, (len(t), 3))
     gyro = np.linalg.solve(Hg, rate_body.T).T + rng.normal(0, 0.01, 3) + rng.normal(0, 0.003, (len(t), 3))
-    return {"t": t, "accel": accel, "gyro": gyro, "pose": pose, "Hg": Hg, "Ha": Ha, "Ba": Ba}
+    return {"t": t, "accel": accel, "gyro": gyro, "pose": pose, "Hg": Hg, "Ha": Ha, "Ba": Ba, "quat": quat}
 
 
 def write_csv(path: Path, rec: dict, rows: np.ndarray | None = None) -> Path:

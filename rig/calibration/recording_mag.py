@@ -1,0 +1,123 @@
+"""A recording's magnetometer, calibrated from what any hand or bench session has: every sample reads the same
+field magnitude, and every still pose the same angle between field and gravity (`mag_fit`).
+
+Before, a recording's magnetometer was fitted to the norm of its still poses alone, which needs nine and gives an
+H in a frame of its own: a six-face session was refused for not saying which axis was up (it never can, for a
+field), and a session without segments dropped its magnetometer without a word. What cannot be calibrated is
+said in one line naming the recording and the columns: a field that is not the same in every pose (iron nearby)
+is named and left out; a mirrored axis (a left-handed frame, which `det(H) > 0` forbids) is refused.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
+from rig.calibration.recording_checks import imported_columns
+from rig.calibration.result import TriadCalibration
+from rig.calibration.saturation import pinned_rows
+from rig.calibration.segments import Pose
+from rig.calibration.uncertainty import inherited_frame_cov
+from rig.errors import CalibrationError
+from rig.session_data import SessionData
+
+MAX_SAMPLES = 20_000          # every k-th sample beyond this: the sphere is as well covered, the fit faster
+MIN_POSES = 4                 # the rotation (3) and the dip (1) from the poses' angles to gravity
+DISTURBED = 0.03              # a pose whose field is this far off the others' magnitude is not the Earth's alone
+MIRROR_GAIN = 10.0
+TURN_SAMPLES = 400            # of a turn's samples, evenly spread: its axis is as well fixed
+MIN_TURN_SAMPLES = 20            # a reflection that fits the angles this many times better: the frame is mirrored
+
+
+def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], norm: float,
+                            turns: list[tuple[np.ndarray, np.ndarray, float]] = (),
+                            left_out_rows: np.ndarray | None = None) -> tuple[TriadCalibration, list[str]]:
+    """The magnetometer's calibration in the accelerometer's frame, and warnings (poses left out). `turns`: (rows,
+    axis in the accelerometer's frame, its standard deviation in rad) of turns about a fixed axis, along which the field stays the same: a
+    six-face session's faces, put down with the box against one edge, leave the rotation about an axis open that
+    its turns fix (7 deg off, stated as 1, before they were used)."""
+    y_all = session.raw["mag"]
+    usable = ~np.isnan(y_all).any(axis=1)
+    _, pinned = pinned_rows(np.where(usable[:, None], y_all, 0.0))
+    usable &= ~pinned
+    if left_out_rows is not None:
+        usable[left_out_rows] = False
+    poses = [p for p in poses if usable[p.rows].sum() >= 2]
+    if len(poses) < MIN_POSES:
+        raise CalibrationError(f"{session.source}: mag: {len(poses)} still poses with magnetometer samples; its "
+                               f"alignment with the accelerometer needs at least {MIN_POSES}")
+    y = y_all[usable][::max(1, int(usable.sum()) // MAX_SAMPLES)]
+    B, S = sphere_start(y, norm)
+    warnings = []
+    kept, named = _undisturbed(session, poses, usable, B, S, norm)
+    if named:
+        warnings.append(f"mag: {named}: left out (the field there is not the one the other poses read: iron "
+                        "nearby, a steel bench or a magnet?)")
+        for k, p in enumerate(poses):              # and the motions to and from it: the iron was near them too
+            if p not in kept:
+                usable[poses[k - 1].rows[-1] + 1 if k else 0:poses[k + 1].rows[0] if k + 1 < len(poses) else None] = False
+        y = y_all[usable][::max(1, int(usable.sum()) // MAX_SAMPLES)]
+        B, S = sphere_start(y, norm)
+        poses = kept
+    means = np.array([y_all[p.rows][usable[p.rows]].mean(axis=0) for p in poses])
+    g = accel.apply(np.array([_accel_mean(session, p) for p in poses]))
+    g /= np.linalg.norm(g, axis=1, keepdims=True)
+    turns = [(rows[usable[rows]], axis, sd) for rows, axis, sd in turns if usable[rows].sum() >= MIN_TURN_SAMPLES]
+    groups = [(means, g)] + [_turn_group(y_all, rows, axis) for rows, axis, _ in turns]
+    Q, rms = best_rotation(S, B, groups, norm)
+    _refuse_mirrored(session, S, B, groups, norm, rms)
+    B, H, cov, info = joint_fit(y, groups, norm, B, Q @ S, [sd for *_, sd in turns])
+    inherited = inherited_frame_cov(accel, H)            # the poses' gravity is in the accelerometer's frame
+    if inherited is not None:
+        cov[3:, 3:] += inherited
+    pose_err = np.linalg.norm((means - B) @ H.T, axis=1) / norm - 1.0
+    return TriadCalibration(
+        B=B, H=H, method="recording-field (every sample's field magnitude, each still pose's angle to gravity)",
+        residual_rms=info["norm_rms"], iterations=info["iterations"], converged=info["converged"],
+        B_std=np.sqrt(np.clip(np.diag(cov)[:3], 0, None)), H_std=np.sqrt(np.clip(np.diag(cov)[3:], 0, None)).reshape(3, 3),
+        B_cov=cov[:3, :3], H_cov=cov[3:, 3:],
+        extra={"poses": [p.name for p in poses], "samples": int(len(y)), "dip_deg": info["dip_deg"],
+               "dip_rms_deg": float(np.degrees(info["dot_rms"])), "pose_norm_error": pose_err.tolist()}), warnings
+
+
+def _turn_group(y_all: np.ndarray, rows: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    rows = rows[::max(1, len(rows) // TURN_SAMPLES)]
+    return y_all[rows], np.tile(axis / np.linalg.norm(axis), (len(rows), 1))
+
+
+def _accel_mean(session: SessionData, p: Pose) -> np.ndarray:
+    a = session.raw["accel"][p.rows]
+    return a[~np.isnan(a).any(axis=1)].mean(axis=0)
+
+
+def _undisturbed(session: SessionData, poses: list[Pose], usable: np.ndarray, B: np.ndarray, S: np.ndarray,
+                 norm: float) -> tuple[list[Pose], str]:
+    """The poses whose field magnitude is the others', and a description of those that are not."""
+    err = np.array([np.median(np.linalg.norm((session.raw["mag"][p.rows][usable[p.rows]] - B) @ S.T, axis=1))
+                    for p in poses]) / norm
+    err = err / np.median(err) - 1.0
+    off = np.abs(err) > DISTURBED
+    if not off.any() or len(poses) - off.sum() < MIN_POSES:
+        return poses, ""
+    named = ", ".join(f"pose {p.name} reads {100 * e:+.1f} %" for p, e, o in zip(poses, err, off) if o)
+    return [p for p, o in zip(poses, off) if not o], f"{int(off.sum())} of {len(poses)} poses ({named})"
+
+
+def _refuse_mirrored(session: SessionData, S: np.ndarray, B: np.ndarray, groups: list, norm: float,
+                     rms: float) -> None:
+    """A magnetometer whose axes are left-handed against the accelerometer's (one column of the opposite sign):
+    only a reflection lines its field up with gravity, and `det(H) > 0` (calibration-json.md) forbids it."""
+    F, rms_mirror = best_rotation(S, B, groups, norm, proper=False)
+    if not rms_mirror * MIRROR_GAIN < rms:
+        return
+    columns = imported_columns(session, "mag") or session.columns.get("mag") or ["x", "y", "z"]
+    angles = [np.degrees(np.arccos(np.clip((np.trace(F @ np.diag(np.where(np.arange(3) == k, -1.0, 1.0))) - 1) / 2,
+                                           -1, 1))) for k in range(3)]
+    k = int(np.argmin(angles))
+    likely = (f"; with column '{columns[k]}' reversed it lines up with the accelerometer within {angles[k]:.0f} deg"
+              if angles[k] < 10 else "")
+    raise CalibrationError(
+        f"{session.source}: mag columns {', '.join(repr(c) for c in columns)} are a left-handed frame: the field's "
+        f"angle to gravity agrees across the poses only when one axis is mirrored ({np.degrees(rms_mirror):.2f} "
+        f"deg against {np.degrees(rms):.1f} deg), and a calibration needs det(H) > 0; reverse the sign of that "
+        f"column{likely}")

@@ -1,0 +1,93 @@
+"""Recordings of 9-DoF units (a magnetometer beside the accelerometer and gyro) without a turntable: the
+magnetometer must come out right against the truth the generator knows, in the accelerometer's frame, or be
+refused in one line. The magnetometer stream is `mag_synth`'s (48 uT dipping 60 deg, hard and soft iron, 0.3 uT
+noise)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ferraris_synth import generate  # noqa: E402
+from mag_synth import mag_truth, readings  # noqa: E402
+from test_unseen_recordings import COLUMNS, G, SI, recording, rig  # noqa: E402
+
+from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.io.recording import recording_session  # noqa: E402
+
+Z_MAX = 4.5          # every element of B and H within this many of its stated standard deviations
+
+
+def frame_of(H_accel: np.ndarray, H_accel_truth: np.ndarray) -> np.ndarray:
+    """The rotation from the truth's frame to the one the calibration's accelerometer defines (imu_tk's
+    upper-triangular convention, or the faces' frame to within their tilt)."""
+    U, _, Vt = np.linalg.svd(H_accel @ np.linalg.inv(H_accel_truth))
+    return U @ Vt
+
+
+def assert_within_stated(mag, H_truth: np.ndarray, B_truth: np.ndarray) -> None:
+    zB = (mag.B - B_truth) / mag.B_std
+    zH = (mag.H - H_truth) / mag.H_std
+    assert np.abs(zB).max() < Z_MAX and np.abs(zH).max() < Z_MAX, (zB.round(1), zH.round(1))
+
+
+def hand_session(seed: int, *, field_scale=None, every_other=False):
+    """The recording of `test_unseen_recordings` (random poses, no segments) with a magnetometer."""
+    rec = recording(seed, poses=20)
+    rng = np.random.default_rng(seed + 100)
+    truth = mag_truth(rng)
+    R = Rotation.from_quat(rec["quat"]).as_matrix()
+    scale = None if field_scale is None else np.array([field_scale.get(p, 1.0) for p in rec["pose"]])
+    mag = readings(R, truth, rng, per_row_field=scale)
+    if every_other:
+        mag[1::2] = np.nan
+    return rec, truth, mag
+
+
+def test_a_ferraris_session_calibrates_its_magnetometer_from_faces_and_turns():
+    """Six faces and three turns: the magnetometer was refused ('6 static poses and none says which axis was up;
+    the norm model needs at least 9', naming no recording), though the turns sweep the field round every axis."""
+    session, truth = generate(3, mag_per_uT=1.0)
+    mag = calibrate_recording(session).sensors["mag"]
+    assert_within_stated(mag, truth.mag.H, truth.mag.B)
+
+
+def test_a_recording_without_segments_keeps_its_magnetometer(tmp_path):
+    """imu_tk's method (poses found in the data) dropped the magnetometer without a word: `rig calibrate` wrote a
+    calibration of the accelerometer and gyro only, exit 0. The magnetometer here logs every other row."""
+    rec, truth, mag = hand_session(1, every_other=True)
+    data = np.column_stack([rec["t"], rec["accel"], rec["gyro"]])
+    lines = ["time,ax,ay,az,gx,gy,gz,mx,my,mz"]
+    for row, m in zip(data, mag):
+        lines.append(",".join(f"{v:.6f}" for v in row) + "," + ",".join("" if np.isnan(v) else f"{v:.4f}" for v in m))
+    (tmp_path / "log.csv").write_text("\n".join(lines) + "\n")
+    done = rig("import", "csv", str(tmp_path / "log.csv"), *COLUMNS, "--mag", "mx,my,mz", "--field-uT", "48",
+               "--units", SI[1] + ",mag=uT", "--gravity", str(G), "--out", str(tmp_path / "s"))
+    assert done.returncode == 0, done.stderr
+    done = rig("calibrate", "--from", str(tmp_path / "s"), "--out", str(tmp_path / "c"))
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    cal = json.loads((tmp_path / "c" / "calibration.json").read_text())["sensors"]
+    assert "mag" in cal, sorted(cal)
+
+    class Mag:
+        B, H = np.array(cal["mag"]["B"]), np.array(cal["mag"]["H"])
+        B_std, H_std = np.array(cal["mag"]["B_std"]), np.array(cal["mag"]["H_std"])
+    assert_within_stated(Mag, frame_of(np.array(cal["accel"]["H"]), rec["Ha"]) @ truth.H, truth.B)
+
+
+def test_poses_beside_a_steel_bench_are_named_and_left_out():
+    """Two poses whose field is 15 % and 12 % off (a steel bench) are named and left out, not spread into H."""
+    rec, truth, mag = hand_session(2, field_scale={5: 1.15, 11: 0.88})
+    session = recording_session(rec["t"], {"accel": rec["accel"], "gyro": rec["gyro"], "mag": mag},
+                                units={"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"}, source="<bench>",
+                                gravity=G, field_uT=truth.field_uT, sample_rate_hz=50.0)
+    cal = calibrate_recording(session)
+    named = [w for w in cal.warnings if w.startswith("mag:")]
+    assert len(named) == 1 and "2 of" in named[0], cal.warnings
+    mag = cal.sensors["mag"]
+    assert_within_stated(mag, frame_of(cal.sensors["accel"].H, rec["Ha"]) @ truth.H, truth.B)
