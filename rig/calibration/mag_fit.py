@@ -21,15 +21,15 @@ from rig.rotations import axis_angle_matrix
 SIGMA_FLOOR = 1e-4                 # of the field: the least a residual is trusted to (model error)
 
 
-def signed_permutations(proper: bool) -> list[np.ndarray]:
-    """The 24 axis swaps and sign flips with det +1 (proper) or -1: a chip mounted turned or mirrored against the
-    accelerometer (an MPU-9250's AK8963 has x and y swapped and z reversed), where alignment starts."""
+def signed_permutations() -> list[np.ndarray]:
+    """The 24 axis swaps and sign flips with det +1: a chip mounted turned against the accelerometer (an MPU-9250's
+    AK8963 has x and y swapped and z reversed, which is one of them), where alignment starts."""
     out = []
     for perm in itertools.permutations(range(3)):
         for signs in itertools.product((1.0, -1.0), repeat=3):
             P = np.zeros((3, 3))
             P[range(3), perm] = signs
-            if (np.linalg.det(P) > 0) == proper:
+            if np.linalg.det(P) > 0:
                 out.append(P)
     return out
 
@@ -40,14 +40,14 @@ def sphere_start(y: np.ndarray, norm: float) -> tuple[np.ndarray, np.ndarray]:
     return fit.center, sphere_map(fit, norm)
 
 
-def best_rotation(S: np.ndarray, B: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: float,
-                  proper: bool = True) -> tuple[np.ndarray, float]:
-    """The rotation (or reflection) Q from the best start for which each group's fields make one angle with its
+def best_rotation(S: np.ndarray, B: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]],
+                  norm: float) -> tuple[np.ndarray, float]:
+    """The rotation Q from the best start for which each group's fields make one angle with its
     direction, and the RMS of that angle's scatter it leaves (rad). A group is (raw field rows (n, 3), unit
     directions (n, 3)): the still poses with their gravity, or the samples of a turn with its axis."""
     a = [((y - B) @ S.T / norm, d) for y, d in groups]
     best, best_rms = None, np.inf
-    for P in signed_permutations(proper):
+    for P in signed_permutations():
         def fun(x, P=P):
             Q = _rotation(x) @ P
             return np.concatenate([_centred((v @ Q.T * d).sum(axis=1)) for v, d in a])

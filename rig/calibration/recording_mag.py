@@ -5,28 +5,34 @@ Before, a recording's magnetometer was fitted to the norm of its still poses alo
 H in a frame of its own: a six-face session was refused for not saying which axis was up (it never can, for a
 field), and a session without segments dropped its magnetometer without a word. What cannot be calibrated is
 said in one line naming the recording and the columns: a field that is not the same in every pose (iron nearby)
-is named and left out; a mirrored axis (a left-handed frame, which `det(H) > 0` forbids) is refused.
+is named and left out. A mirrored axis cannot be told from a field that points the other way: one column of the
+opposite sign, with the field reversed (`-F`, a half turn), is a proper rotation, so the fit reads the field
+reversed, its angles to gravity and its carried directions as right as the true one's, and only the sign of the
+dip tells them apart. That sign is the user's hemisphere, which the recording does not know: a field pointing up
+is said in a warning, not refused.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
 from rig.calibration.recording_checks import imported_columns
 from rig.calibration.result import TriadCalibration
-from rig.calibration.saturation import pinned_rows
+from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.segments import Pose
 from rig.calibration.uncertainty import inherited_frame_cov
 from rig.errors import CalibrationError
-from rig.session_data import SessionData
+from rig.session_data import SessionData, filled
 
 MAX_SAMPLES = 20_000          # every k-th sample beyond this: the sphere is as well covered, the fit faster
 MIN_POSES = 4                 # the rotation (3) and the dip (1) from the poses' angles to gravity
 DISTURBED = 0.03              # a pose whose field is this far off the others' magnitude is not the Earth's alone
-MIRROR_GAIN = 10.0
 TURN_SAMPLES = 400            # of a turn's samples, evenly spread: its axis is as well fixed
-MIN_TURN_SAMPLES = 20            # a reflection that fits the angles this many times better: the frame is mirrored
+MIN_TURN_SAMPLES = 20
+RAIL_SIGMAS = 3.0
+RAIL_WINDOW = 9
 
 
 def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], norm: float,
@@ -38,8 +44,14 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
     its turns fix (7 deg off, stated as 1, before they were used)."""
     y_all = session.raw["mag"]
     usable = ~np.isnan(y_all).any(axis=1)
-    _, pinned = pinned_rows(np.where(usable[:, None], y_all, 0.0))
+    warnings = []
+    found, pinned = pinned_rows(np.where(usable[:, None], y_all, 0.0))
     usable &= ~pinned
+    if found:
+        usable &= ~near_rails(y_all, found, poses)
+        warnings.append(f"mag: {rail_names('mag', found, imported_columns(session, 'mag'))}: those samples and the "
+                        f"ones within {RAIL_SIGMAS:g} noise deviations of the rail left out (a clipped pose's samples "
+                        "inside the range are the tail of its noise)")
     if left_out_rows is not None:
         usable[left_out_rows] = False
     poses = [p for p in poses if usable[p.rows].sum() >= 2]
@@ -48,7 +60,6 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
                                f"alignment with the accelerometer needs at least {MIN_POSES}")
     y = y_all[usable][::max(1, int(usable.sum()) // MAX_SAMPLES)]
     B, S = sphere_start(y, norm)
-    warnings = []
     kept, named = _undisturbed(session, poses, usable, B, S, norm)
     if named:
         warnings.append(f"mag: {named}: left out (the field there is not the one the other poses read: iron "
@@ -64,9 +75,12 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
     g /= np.linalg.norm(g, axis=1, keepdims=True)
     turns = [(rows[usable[rows]], axis, sd) for rows, axis, sd in turns if usable[rows].sum() >= MIN_TURN_SAMPLES]
     groups = [(means, g)] + [_turn_group(y_all, rows, axis) for rows, axis, _ in turns]
-    Q, rms = best_rotation(S, B, groups, norm)
-    _refuse_mirrored(session, S, B, groups, norm, rms)
+    Q, _ = best_rotation(S, B, groups, norm)
     B, H, cov, info = joint_fit(y, groups, norm, B, Q @ S, [sd for *_, sd in turns])
+    if info["dip_deg"] < 0:
+        warnings.append(f"mag: the field points {-info['dip_deg']:.0f} deg up from the horizon: right in the southern "
+                        "magnetic hemisphere; in the northern one a magnetometer column has the opposite sign (a "
+                        "mirrored axis, read here as the field reversed)")
     inherited = inherited_frame_cov(accel, H)            # the poses' gravity is in the accelerometer's frame
     if inherited is not None:
         cov[3:, 3:] += inherited
@@ -78,6 +92,21 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
         B_cov=cov[:3, :3], H_cov=cov[3:, 3:],
         extra={"poses": [p.name for p in poses], "samples": int(len(y)), "dip_deg": info["dip_deg"],
                "dip_rms_deg": float(np.degrees(info["dot_rms"])), "pose_norm_error": pose_err.tolist()}), warnings
+
+
+def near_rails(y: np.ndarray, found: list, poses: list[Pose]) -> np.ndarray:
+    """Rows whose field, its noise averaged out over RAIL_WINDOW samples, lies within RAIL_SIGMAS of the still
+    poses' noise of a rail, and the whole of any pose that has one: where the field is near the range's end, the
+    samples that noise carries beyond it read the rail, those it leaves inside are the lower tail alone, and
+    their mean is off (leaving out only the rail's own samples kept B 5.8 of its deviations off)."""
+    sd = np.nanmedian([np.nanstd(y[p.rows], axis=0, ddof=1) for p in poses], axis=0)
+    smooth = uniform_filter1d(filled(y), RAIL_WINDOW, axis=0)
+    near = np.zeros(len(y), dtype=bool)
+    for r in found:
+        near |= np.abs(smooth[:, r.axis] - r.value) < RAIL_SIGMAS * sd[r.axis]
+    for p in poses:
+        near[p.rows] |= near[p.rows].any()
+    return near
 
 
 def _turn_group(y_all: np.ndarray, rows: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -101,23 +130,3 @@ def _undisturbed(session: SessionData, poses: list[Pose], usable: np.ndarray, B:
         return poses, ""
     named = ", ".join(f"pose {p.name} reads {100 * e:+.1f} %" for p, e, o in zip(poses, err, off) if o)
     return [p for p, o in zip(poses, off) if not o], f"{int(off.sum())} of {len(poses)} poses ({named})"
-
-
-def _refuse_mirrored(session: SessionData, S: np.ndarray, B: np.ndarray, groups: list, norm: float,
-                     rms: float) -> None:
-    """A magnetometer whose axes are left-handed against the accelerometer's (one column of the opposite sign):
-    only a reflection lines its field up with gravity, and `det(H) > 0` (calibration-json.md) forbids it."""
-    F, rms_mirror = best_rotation(S, B, groups, norm, proper=False)
-    if not rms_mirror * MIRROR_GAIN < rms:
-        return
-    columns = imported_columns(session, "mag") or session.columns.get("mag") or ["x", "y", "z"]
-    angles = [np.degrees(np.arccos(np.clip((np.trace(F @ np.diag(np.where(np.arange(3) == k, -1.0, 1.0))) - 1) / 2,
-                                           -1, 1))) for k in range(3)]
-    k = int(np.argmin(angles))
-    likely = (f"; with column '{columns[k]}' reversed it lines up with the accelerometer within {angles[k]:.0f} deg"
-              if angles[k] < 10 else "")
-    raise CalibrationError(
-        f"{session.source}: mag columns {', '.join(repr(c) for c in columns)} are a left-handed frame: the field's "
-        f"angle to gravity agrees across the poses only when one axis is mirrored ({np.degrees(rms_mirror):.2f} "
-        f"deg against {np.degrees(rms):.1f} deg), and a calibration needs det(H) > 0; reverse the sign of that "
-        f"column{likely}")

@@ -91,3 +91,37 @@ def test_poses_beside_a_steel_bench_are_named_and_left_out():
     assert len(named) == 1 and "2 of" in named[0], cal.warnings
     mag = cal.sensors["mag"]
     assert_within_stated(mag, frame_of(cal.sensors["accel"].H, rec["Ha"]) @ truth.H, truth.B)
+
+
+def test_a_mirrored_axis_is_said_as_a_field_pointing_up():
+    """One magnetometer column of the opposite sign cannot be told from a field pointing the other way (with the
+    field reversed it is a proper rotation: angles to gravity and the gyro's carried directions fit as well), so
+    the calibration reads the field reversed; only the dip's sign, the user's hemisphere, tells. The northern dip
+    of the generator must come out as such, and the mirrored one be said in a warning naming what it may be."""
+    warnings = {}
+    for flipped in (False, True):
+        rec, truth, mag = hand_session(0)
+        if flipped:
+            mag[:, 1] = -mag[:, 1]
+        session = recording_session(rec["t"], {"accel": rec["accel"], "gyro": rec["gyro"], "mag": mag},
+                                    units={"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"}, source="<mirror>",
+                                    gravity=G, field_uT=truth.field_uT, sample_rate_hz=50.0)
+        cal = calibrate_recording(session)
+        warnings[flipped] = [w for w in cal.warnings if w.startswith("mag:")]
+        assert cal.sensors["mag"].extra["dip_deg"] * (-1 if flipped else 1) > 50
+    assert warnings[False] == [] and len(warnings[True]) == 1 and "opposite sign" in warnings[True][0]
+
+
+def test_a_clipped_axis_is_named_and_its_poses_near_the_rail_left_out():
+    """An axis clipped at the top tenth of its range: the rail's samples were dropped without a word and those
+    that noise left inside the range kept, B off by up to 5.8 of its stated deviations. The rail is named, and the
+    samples whose field lies near it (noise averaged out), and the poses that have them, are left out."""
+    rec, truth, mag = hand_session(3)
+    mag[:, 0] = np.minimum(mag[:, 0], np.quantile(mag[:, 0], 0.9))
+    session = recording_session(rec["t"], {"accel": rec["accel"], "gyro": rec["gyro"], "mag": mag},
+                                units={"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"}, source="<clipped>",
+                                gravity=G, field_uT=truth.field_uT, sample_rate_hz=50.0)
+    cal = calibrate_recording(session)
+    named = [w for w in cal.warnings if w.startswith("mag:")]
+    assert len(named) == 1 and "mag.x" in named[0] and "pinned" in named[0], cal.warnings
+    assert_within_stated(cal.sensors["mag"], frame_of(cal.sensors["accel"].H, rec["Ha"]) @ truth.H, truth.B)
