@@ -32,8 +32,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT)]
 
 from rig.calibration.heldout import carry_error_deg, heldout_scores, score_series, scoring_layout  # noqa: E402
-from rig.calibration.recording import calibrate_recording, gravity_directions, motion  # noqa: E402
+from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.calibration.recording_fits import gyro_rotation_fit  # noqa: E402
+from rig.calibration.recording_gyro import gravity_directions, motion  # noqa: E402
 from rig.calibration.static_detect import initial_interval  # noqa: E402
 from rig.io.import_ferraris import import_ferraris  # noqa: E402
 from rig.io.import_imu_tk import import_imu_tk  # noqa: E402

@@ -19,7 +19,7 @@ def unsaturated_poses(session: SessionData, poses: list[Pose]) -> tuple[list[Pos
     """The poses with no accelerometer or magnetometer sample at a rail, and (warning, reason) for each sensor
     that had some: a clipped pose reads less than the vector (an axis at 8 m/s^2 where gravity along it gives
     9.8), which the fit would take for scale and offset. The motions either side of a left-out pose join into
-    one (`recording._carries`), which still carries gravity from the pose before it to the next."""
+    one (`recording_gyro.whole_carries`), which still carries gravity from the pose before it to the next."""
     out = []
     for sensor in ("accel", "mag"):
         found, hit = _rails_of(session, sensor)

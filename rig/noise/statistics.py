@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.recording import RecordingCalibration, pose_stats
+from rig.calibration.recording import RecordingCalibration
 from rig.calibration.recording_fits import fit_faces
+from rig.calibration.recording_vector import pose_stats
 from rig.calibration.saturation import distinct as _distinct, pinned_ends
 from rig.errors import CalibrationError
 from rig.noise.allan import allan_deviation

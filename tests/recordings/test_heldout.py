@@ -18,8 +18,10 @@ from paths import SHARED  # noqa: E402
 
 from rig.calibration.heldout import (heldout_scores, score_series, scoring_layout, series,  # noqa: E402
                                      unlabelled_rests)
-from rig.calibration.recording import (RecordingCalibration, calibrate_recording, segments_of, summed_rate,  # noqa: E402
-                                      turn_angle)
+from rig.calibration.recording import RecordingCalibration, calibrate_recording  # noqa: E402
+from rig.calibration.recording_fits import turn_angle  # noqa: E402
+from rig.calibration.recording_gyro import summed_rate  # noqa: E402
+from rig.calibration.segments import segments_of  # noqa: E402
 from rig.calibration.result import TriadCalibration  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 
