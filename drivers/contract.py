@@ -113,6 +113,15 @@ class DataReady(ABC):
         """True while an unread sample is waiting."""
 
 
+class ReadsWhenReady(DataReady):
+    """A chip whose data-ready flag sits just before its data registers: flag and sample in one burst."""
+
+    @abstractmethod
+    def read_if_ready(self) -> tuple[int, int, int] | None:
+        """The waiting sample (as `read_raw`), or None when none is: one bus transfer for what `data_ready()`
+        then `read_raw()` read in two, with the same effect on the chip."""
+
+
 class KeepsConfiguration(ABC):
     @abstractmethod
     def configuration_lost(self) -> str | None:

@@ -13,7 +13,8 @@ import time
 from typing import Any, Callable
 
 from drivers._regs import I2cRegisters, choose
-from drivers.contract import DataReady, KeepsConfiguration, Placement, Sensor, Thermometer, Wiring, chip_driver
+from drivers.contract import (KeepsConfiguration, Placement, ReadsWhenReady, Sensor, Thermometer, Wiring,
+                              chip_driver)
 from drivers.errors import SensorFault, WrongIdentity, wrap_os_error
 from drivers.regmap import RegisterMap, Reg, ROBit, RWBit, RWBits
 
@@ -61,6 +62,7 @@ READY_POLLS, READY_POLL_S = 20, 5e-3  # up to 100 ms for ITG_RDY (start-up ~50 m
 
 _XYZ = struct.Struct(">hhh")
 _T = struct.Struct(">h")
+_STATUS_TO_Z = 9                    # INT_STATUS 0x1A .. GYRO_ZOUT_L 0x22, one auto-increment burst
 
 
 def internal_rate_hz(dlpf_hz: int) -> int:
@@ -75,7 +77,7 @@ def exact_rates(dlpf_hz: int) -> dict[float, int]:
 
 
 @chip_driver
-class ITG3200(Sensor, DataReady, Thermometer, KeepsConfiguration):
+class ITG3200(Sensor, ReadsWhenReady, Thermometer, KeepsConfiguration):
     """ITG-3200 at +-2000 deg/s with the PLL on the X gyro as clock.
 
     INT_CFG latches the interrupt and lets any read clear it: a polled or level-triggered host never misses the
@@ -163,6 +165,15 @@ class ITG3200(Sensor, DataReady, Thermometer, KeepsConfiguration):
             return _XYZ.unpack(bytes(self.bus.read_i2c_block_data(self.address, 0x1D, 6)))  # GYRO_XOUT_H
         except OSError as exc:
             raise wrap_os_error(exc, self.regs.where(R.GYRO_XOUT_H), "6-byte burst read") from exc
+
+    def read_if_ready(self) -> tuple[int, int, int] | None:
+        """INT_STATUS through GYRO_ZOUT_L in one 9-byte burst (registers auto-increment, registers.md 3.1): X, Y,
+        Z if RAW_DATA_RDY was set, else None. Reading INT_STATUS clears the latched flag, as `data_ready()` does."""
+        try:
+            raw = bytes(self.bus.read_i2c_block_data(self.address, 0x1A, _STATUS_TO_Z))  # INT_STATUS
+        except OSError as exc:
+            raise wrap_os_error(exc, self.regs.where(R.INT_STATUS), f"{_STATUS_TO_Z}-byte burst read") from exc
+        return _XYZ.unpack_from(raw, 3) if R.raw_data_rdy.get(raw[0]) else None
 
     def read_temperature(self) -> float:
         """Die temperature in degC: (raw + 23000) / 280 (kernel offset and scale)."""

@@ -39,6 +39,7 @@ class Bits:
         if not (bits >= 1 and 0 <= lowest and lowest + bits <= 8 * reg.width):
             raise ValueError(f"field of {bits} bits at bit {lowest} does not fit register {reg!r}")
         self.bits, self.reg, self.lowest, self.readonly = bits, reg, lowest, readonly
+        self.address = reg.address
         self.top = (1 << bits) - 1
         self.mask = self.top << lowest
         self.name = "?"
@@ -61,7 +62,7 @@ class Bits:
     def __get__(self, regs: "RegisterMap | None", owner: type | None = None) -> Any:
         if regs is None:
             return self
-        return self.get(regs.read(self.reg))
+        return (regs.io.read(self.address) >> self.lowest) & self.top     # regs.read, one call: data-ready polls
 
     def __set__(self, regs: "RegisterMap", value: int) -> None:
         if self.readonly:

@@ -84,20 +84,22 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     sampler = Sampler(board, clock, m.rate_hz, m.mag_every, session_t0=session_t0)
     sampler.align_to("gyro")
     j, first, tries = start_step, start_step, {}
+    at = None       # the encoder angles read last, when the table has not moved since (a step's end: its start)
     while j < n:
         attempt = tries.get(j, 0) + 1
         try:
             if j > first:
                 if progress:
                     progress(j, n, "move")
-                _record_move(table, sampler, store, geometry, schedule[j], j - 1, m,
-                             strict=attempt < m.max_hold_attempts)
+                at = _record_move(table, sampler, store, geometry, schedule[j], j - 1, m,
+                                  strict=attempt < m.max_hold_attempts, start_deg=at)
             if progress:
                 progress(j, n, "hold")
-            _record_hold(table, sampler, board, store, geometry, schedule[j], j, m, attempt)
+            at = _record_hold(table, sampler, board, store, geometry, schedule[j], j, m, attempt, start_deg=at)
             j += 1
         except StepSpoiled as spoiled:
             tries[j] = attempt
+            at = None
             if attempt >= m.max_hold_attempts:
                 raise spoiled.final(j, attempt) from None
             j = _redo(table, store, sampler, schedule, j, first, spoiled, m)
@@ -167,10 +169,13 @@ def _redo(table: Table, store: Store, sampler: Sampler, schedule: list[Orientati
 
 
 def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGeometry, target: Orientation,
-                 step: int, m: MotionSettings, strict: bool = True) -> None:
-    """Record the move leaving hold `step`. `strict`: a move whose gyro stream has a hole while the table turns
-    (a read error, a retried table request: `gyro_hole`) spoils the step."""
-    t_pos, pos, vel = [sampler.stamp(sampler.clock.now())], [table.positions()], [(0.0, 0.0)]
+                 step: int, m: MotionSettings, strict: bool = True,
+                 start_deg: tuple[float, float] | None = None) -> tuple[float, float]:
+    """Record the move leaving hold `step`; returns the encoder angles at its end. `strict`: a move whose gyro
+    stream has a hole while the table turns (a read error, a retried table request: `gyro_hole`) spoils the step.
+    `start_deg`: the angles the hold just read (the table has not moved since), else they are read here."""
+    t_pos = [sampler.stamp(sampler.clock.now())]
+    pos, vel = [table.positions() if start_deg is None else start_deg], [(0.0, 0.0)]
 
     def log_polls(statuses: list) -> None:
         ordered = sorted(statuses, key=lambda st: st.axis)
@@ -178,11 +183,12 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
         pos.append(tuple(st.position_deg for st in ordered))
         vel.append(tuple(st.velocity_dps for st in ordered))
 
-    table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,
-                  tolerance_deg=m.tolerance_deg, settle_s=m.settle_s, on_poll=log_polls, wait=sampler.run_for)
+    final = table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,
+                          tolerance_deg=m.tolerance_deg, settle_s=m.settle_s, on_poll=log_polls,
+                          wait=sampler.run_for)
     rec = sampler.take()
     t_pos.append(sampler.stamp(sampler.clock.now()))
-    pos.append(table.positions())
+    pos.append(_angles(final) if final else table.positions())      # its last poll read them as it ended
     vel.append((0.0, 0.0))
     table_deg = interpolate_angles(rec.t, t_pos, pos, vel)
     log_read_errors(store, sampler)
@@ -192,6 +198,12 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
                           f"table turned {hole[1]:.2f} deg (read errors or a retried table request)")
     store.append_move(step, t=rec.t, samples=rec.samples, q_ref=quat_from_matrix(geometry.rotation(*table_deg.T)),
                       table_deg=table_deg, temp_c=rec.temp_c, vsupply_v=rec.vsupply_v)
+    return pos[-1]
+
+
+def _angles(statuses: list) -> tuple[float, float]:
+    """(outer, inner) encoder angles of one status poll of both axes."""
+    return tuple(st.position_deg for st in sorted(statuses, key=lambda st: st.axis))
 
 
 def gyro_hole(rec: Recording, table_deg: np.ndarray, dt: float, tolerance_deg: float) -> tuple[float, float] | None:
@@ -214,13 +226,15 @@ def gyro_hole(rec: Recording, table_deg: np.ndarray, dt: float, tolerance_deg: f
 
 
 def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geometry: TableGeometry,
-                 target: Orientation, step: int, m: MotionSettings, attempt: int = 1) -> Recording:
-    """Record one attempt at hold `step`; stored unless the chips lost their configuration or the hold moved."""
+                 target: Orientation, step: int, m: MotionSettings, attempt: int = 1,
+                 start_deg: tuple[float, float] | None = None) -> tuple[float, float]:
+    """Record one attempt at hold `step`; stored unless the chips lost their configuration or the hold moved.
+    `start_deg`: the angles the move into it read as it ended, else read here. Returns the last angles read."""
     sequential = m.sequential is not None and bool(m.sequential.target)   # the first hold of a run: hold_s
     ticks = int(round((m.sequential.max_s if sequential else m.hold_s) * m.rate_hz))
     chunk = max(int(round(HOLD_POLL_S * m.rate_hz)), 1)
     every = max(int(round(SEQUENTIAL_CHECK_S * m.rate_hz)), 1) if sequential else chunk
-    readings = [table.positions()]
+    readings = [table.positions() if start_deg is None else start_deg]
     for k in range(every, ticks + every, every):
         done = min(k, ticks)
         sampler.run(done - (k - every))
@@ -248,4 +262,4 @@ def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geo
     log_outliers(store, step, rec)
     if m.sequential is not None:
         m.sequential.learn(rec.samples)
-    return rec
+    return readings[-1]

@@ -59,10 +59,14 @@ class TableProfile:
         return self.axis_bases[axis] + self.axis_regs[register]
 
     def feedback_block(self) -> tuple[int, int]:
-        """(offset, count) of the one FC03 per axis that covers every feedback register."""
-        lo = min(self.axis_regs[r] for r in FEEDBACK_REGISTERS)
-        hi = max(self.axis_regs[r] + AXIS_REGISTER_TYPES[r][0] for r in FEEDBACK_REGISTERS)
-        return lo, hi - lo
+        """(offset, count) of the one FC03 per axis that covers every feedback register; found once (every
+        status poll asks twice)."""
+        block = self.__dict__.get("_feedback_block")
+        if block is None:
+            lo = min(self.axis_regs[r] for r in FEEDBACK_REGISTERS)
+            hi = max(self.axis_regs[r] + AXIS_REGISTER_TYPES[r][0] for r in FEEDBACK_REGISTERS)
+            block = self.__dict__["_feedback_block"] = (lo, hi - lo)    # frozen: set past __setattr__
+        return block
 
     def axis_index(self, axis: int | str) -> int:
         if isinstance(axis, str):

@@ -130,6 +130,16 @@ def test_data_ready_and_rate_change(sleeps):
     assert gyro.settings()["rate_hz"] == 50.0
 
 
+def test_read_if_ready_is_one_burst_from_int_status(sleeps):
+    """Flag and sample in one 9-byte auto-increment burst: the sample when RAW_DATA_RDY is set, else None."""
+    ready = [0x01, 0x00, 0x00, 0x01, 0x02, 0xFF, 0xFE, 0x80, 0x00]
+    steps = [("rb", A, 0x1A, 9, ready), ("rb", A, 0x1A, 9, [0x04] + ready[1:])]
+    with expected_protocol("i2c", steps) as bus:
+        gyro = ITG3200(bus, sleep=sleeps)
+        assert gyro.read_if_ready() == (258, -2, -32768)
+        assert gyro.read_if_ready() is None           # ITG_RDY alone is not a sample
+
+
 def test_settings_scale_rad_per_s(sleeps):
     s = ITG3200(object(), sleep=sleeps).settings()
     assert s["scale"] == pytest.approx(1.214142e-3, rel=1e-6)   # kernel 1 214 142 nrad/s per LSB

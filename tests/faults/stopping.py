@@ -29,16 +29,26 @@ def stopping_factory(at_read: int | None = None, how: str = "kill", triad: str =
         chip = rig.board.triads[triad]
         read, count = chip.read_raw, [0]
 
-        def read_raw():
+        def stop_here() -> bool:
             count[0] += 1
             if count[0] == at_read:
                 if how == "kill":
                     raise Killed()
                 if how == "glitch":
-                    return glitch
+                    return True
                 raise StopSignal(getattr(signal, how))
-            return read()
+            return False
+
+        def read_raw():
+            return glitch if stop_here() else read()
         chip.read_raw = read_raw
+        if hasattr(chip, "read_if_ready"):      # the sampler reads such a chip's flag and sample in one burst
+            burst = chip.read_if_ready
+
+            def read_if_ready():
+                value = burst()
+                return value if value is None or not stop_here() else glitch
+            chip.read_if_ready = read_if_ready
         return rig
     return factory
 

@@ -111,6 +111,14 @@ def test_itg3200_new_rate_is_seen_after_a_sample_period(clock, i2c):
     assert as_ints(driver.read_raw()) == [-11500, 5750, 0]
 
 
+def test_itg3200_read_if_ready_gives_the_sample_once(clock, i2c):
+    chip, driver = started_itg3200(clock, i2c, rate_dps=(8.0, -16.0, 80.0))
+    clock.sleep(0.02)
+    assert as_ints(driver.read_if_ready()) == [115, -230, 1150]
+    assert driver.read_if_ready() is None             # the burst read INT_STATUS, which cleared the flag
+    assert chip.violations == []
+
+
 @pytest.mark.parametrize("temp_c", [-20.0, 35.0, 61.5])
 def test_itg3200_temperature_uses_280_lsb_per_degc_and_minus_13200_at_35c(clock, i2c, temp_c):
     _, driver = started_itg3200(clock, i2c, temp_c=temp_c)
