@@ -12,9 +12,9 @@ from typing import Callable
 import numpy as np
 
 from rig.calibration import gyro, joint, lever_arm, observability, twostep
-from rig.calibration.sampling import refuse_coarse_motions
 from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
 from rig.calibration.result import TriadCalibration
+from rig.calibration.sampling import TABLE_MARGIN, refuse_coarse_motions
 from rig.errors import CalibrationError
 from rig.pipeline.screening import trusted_moves
 from rig.rotations import matrix_from_quat
@@ -93,7 +93,7 @@ def calibrate_gyro_triad(session: SessionData, h: HoldStats, excluded: dict[int,
         raise CalibrationError(f"gyro: {len(moves)} usable moves between holds, need at least {MIN_GYRO_MOVES}{why}")
     check_move_axes(moves)
     nominal = gyro.path_bound(gyro.MoveSet.build(moves, B)) * np.eye(3)    # the comparison is relative: a scale will do
-    refuse_coarse_motions(session.source, "the table", moves, B, nominal, noise, session.sample_rate_hz)
+    refuse_coarse_motions(session.source, "the table", moves, B, nominal, noise, session.sample_rate_hz, TABLE_MARGIN)
     cal = gyro.calibrate_gyro(moves, B, samples=samples, rate_noise_counts=noise)
     warn_coarse_sampling(moves, cal, warnings)
     if cal.B_std is None and len(h.step) > 1:
