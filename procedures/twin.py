@@ -25,6 +25,7 @@ from fixtures.world.recorded import RecordedAttitude
 from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
+from rig.io.decimals import written_decimals
 from rig.io.recording import recording_session
 from rig.noise.statistics import recording_statistics
 from rig.rotations import matrix_from_rotvec
@@ -46,6 +47,7 @@ class Replay:
     source: str
     carry_sd: float | None = None         # the recording's trust in its hand motions, kept for every replica
     gyro_start: np.ndarray | None = None  # the recording's gyro H, where a replica's gyro fit starts
+    decimals: dict[str, int] | None = None  # sensors in physical units the recording printed with so many decimals
 
 
 def twin_view(session: SessionData, rec: RecordingCalibration) -> SessionData:
@@ -100,7 +102,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
-                  rec.sensors["gyro"].extra.get("carry_sd"), rec.sensors["gyro"].H)
+                  rec.sensors["gyro"].extra.get("carry_sd"), rec.sensors["gyro"].H, _decimals(session, sensors))
 
 
 def _attitudes(t: np.ndarray, omega: np.ndarray, pose_of: np.ndarray, up: list[np.ndarray]) -> np.ndarray:
@@ -152,6 +154,8 @@ def replica(replay: Replay, seed: int, effects=(), quiet=()) -> SessionData:
         y = world.sense(name, replay.t)
         if replay.units[name] == "counts":
             y = np.round(y)
+        elif name in (replay.decimals or {}):
+            y = np.round(y, replay.decimals[name])
         y[replay.missing[name]] = np.nan
         raw[name] = y
     return recording_session(replay.t, raw, units=replay.units, gravity=replay.env.gravity,
@@ -312,6 +316,16 @@ def _white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) -
     if session.meta.get("units", {}).get(sensor, "counts") == "counts":
         return noise_sigma(stds)
     return np.sqrt(np.mean(stds ** 2, axis=0))
+
+
+def _decimals(session: SessionData, sensors) -> dict[str, int]:
+    """Sensors in physical units whose every value has at most d decimals: the file the recording came from was
+    printed so (a CSV export), and its replicas are printed alike. Without it the value step of a stream written
+    with 6 decimals is 1e-6 in the recording and a fraction of that in the replicas' unrounded values, and the
+    twin named quantisation on every such sensor of a clean recording."""
+    units = session.meta.get("units", {})
+    found = {s: written_decimals(session.raw[s]) for s in sensors if units.get(s, "counts") != "counts"}
+    return {s: d for s, d in found.items() if d is not None}
 
 
 def _rate(session: SessionData, rec: RecordingCalibration) -> np.ndarray:
