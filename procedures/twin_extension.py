@@ -21,7 +21,7 @@ from procedures.twin import Replay, band_chance
 from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
 from rig.noise.allan import allan_deviation, fit_noise
-from rig.noise.statistics import value_step
+from rig.noise.statistics import on_grid, value_step
 from rig.effects import unit_for
 from rig.session_data import SessionData
 from rig.units import REPORT_UNITS
@@ -97,6 +97,9 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
         q = None
         if f"{sensor}.step" in fams and replay.units[sensor] != "counts":
             q = np.array([value_step(_clean(y)[:, k]) for k in range(3)])
+            # a step that is no grid is how densely a stream in full precision lies, not a quantum to name
+            q = np.where([on_grid(_clean(y)[:, k], q[k]) for k in range(3)], q, 0.0)
+            q = q if q.any() else None
         shaped = bool({f"{sensor}.adev", f"{sensor}.psd"} & fams)
         if q is not None:
             # the noise ahead of the rounding the step implies; where poses are not still, the quiet poses' (the
