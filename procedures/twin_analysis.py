@@ -68,7 +68,7 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     still = outside(real, after)
     return {
         "schema": SCHEMA, "session": session.source, "replicas": replicas, "replicas_failed": failed + failed_after,
-        "band": "1-99 % of the replicas",
+        "band": "1-99 % of the replicas, as order statistics (the k-th smallest to the k-th largest)",
         "summary": {"statistics": len(before), "inside_before": len(before) - len(off),
                     "inside_after": len(after) - len(still), "outside_before": sorted(off),
                     "outside_after": sorted(still)},
