@@ -360,6 +360,8 @@ def _align(R: np.ndarray, u: np.ndarray) -> np.ndarray:
 def _head(R: np.ndarray, m: np.ndarray, m_world: np.ndarray) -> np.ndarray:
     """R turned about world up so that the field m, seen in the fixture, points horizontally where m_world does."""
     a = R @ m
+    if not (np.isfinite(a).all() and np.isfinite(m_world).all()):      # a pose without a field sample keeps its heading
+        return R
     psi = np.arctan2(m_world[1], m_world[0]) - np.arctan2(a[1], a[0])
     return matrix_from_rotvec(np.array([0.0, 0.0, psi])) @ R
 
