@@ -9,7 +9,8 @@ from contextlib import nullcontext
 
 import numpy as np
 
-from procedures.twin import Background, ReplicaJob, bands, reconstruct, replica_runs, twin_view
+from procedures.twin import Background, ReplicaJob, reconstruct, replica_runs, twin_view
+from procedures.twin_bands import bands
 from procedures.twin_extension import Cause, family, outside, propose
 from procedures.twin_model import added_rate, heldout_change, model_causes
 from rig.calibration.recording import RecordingCalibration, calibrate_recording

@@ -15,7 +15,7 @@ from inject import inject  # noqa: E402
 from test_magnetometer_recordings import hand_session  # noqa: E402
 from test_unseen_recordings import G  # noqa: E402
 
-from procedures.twin import bands  # noqa: E402
+from procedures.twin_bands import bands  # noqa: E402
 from procedures.twin_analysis import analyse_twin  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
