@@ -9,7 +9,8 @@ from contextlib import nullcontext
 
 import numpy as np
 
-from procedures.twin import Background, ReplicaJob, bands, reconstruct, replica_runs, twin_view
+from procedures.twin import Background, ReplicaJob, reconstruct, replica_runs, twin_view
+from procedures.twin_bands import bands
 from procedures.twin_extension import Cause, family, outside, propose
 from procedures.twin_model import added_rate, heldout_change, model_causes
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
@@ -68,7 +69,7 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     still = outside(real, after)
     return {
         "schema": SCHEMA, "session": session.source, "replicas": replicas, "replicas_failed": failed + failed_after,
-        "band": "1-99 % of the replicas",
+        "band": "1-99 % of the replicas, as order statistics (the k-th smallest to the k-th largest)",
         "summary": {"statistics": len(before), "inside_before": len(before) - len(off),
                     "inside_after": len(after) - len(still), "outside_before": sorted(off),
                     "outside_after": sorted(still)},

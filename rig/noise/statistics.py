@@ -106,6 +106,17 @@ def value_step(x: np.ndarray) -> float:
     return _step(_distinct(x)[0])
 
 
+def on_grid(x: np.ndarray, step: float, share: float = 0.9) -> bool:
+    """Whether the stream's values lie on multiples of `step` from one of them (most of them: a few values off the
+    grid, as a resampled row, do not undo it): a quantum. A stream in full precision has a smallest step too, set
+    by how densely its values lie, which is no quantum."""
+    x = x[np.isfinite(x)]
+    if step <= 0 or x.size < 3:
+        return False
+    r = (x - x[0]) / step
+    return bool(np.mean(np.abs(r - np.round(r)) < 0.01) >= share)
+
+
 def pinned_fraction(x: np.ndarray) -> float:
     """Share of samples piled at the stream's smallest or largest value: a clipped output piles up at its rail,
     more there than at the value next to it; an unclipped one thins out towards its extremes (as

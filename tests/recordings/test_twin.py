@@ -12,8 +12,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 from inject import inject  # noqa: E402
+from test_magnetometer_recordings import hand_session  # noqa: E402
+from test_unseen_recordings import G  # noqa: E402
 
+from procedures.twin_bands import bands  # noqa: E402
 from procedures.twin_analysis import analyse_twin  # noqa: E402
+from rig.io.recording import recording_session  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.io.session_csv import write_session  # noqa: E402
 
@@ -26,6 +30,39 @@ def test_a_clean_recording_is_inside_its_twin_and_no_effect_is_named():
     s = report["summary"]
     assert s["inside_before"] >= 0.9 * s["statistics"]
     assert report["causes"] == []
+
+
+def test_a_statistic_the_twin_gets_right_falls_outside_its_band_by_chance_alone():
+    """Values drawn as the replicas are fall outside the band of 40 replicas at 2/(n+1) = 4.9 %, the rate the
+    family test counts as chance: numpy's interpolated 1-99 % of 40 draws left 6.2 % outside. 20 000 statistics
+    of three shapes: the rate is known to 0.15 % (one binomial standard deviation); 4 of them are allowed."""
+    rng = np.random.default_rng(0)
+    n, m = 40, 20_000
+    draws = np.concatenate([rng.standard_normal((n + 1, m // 2)), rng.lognormal(0, 1, (n + 1, m // 4)),
+                            rng.uniform(0, 1, (n + 1, m - m // 2 - m // 4))], axis=1)
+    band = bands([dict(enumerate(row)) for row in draws[:n]])
+    out = np.mean([not band[k][0] <= draws[n, k] <= band[k][1] for k in range(m)])
+    chance = 2 / (n + 1)
+    assert abs(out - chance) < 4 * np.sqrt(chance * (1 - chance) / m), (out, chance)
+
+
+def test_a_clean_hand_recording_printed_with_decimals_is_at_chance_and_names_nothing():
+    """imu_tk-like hand sessions with a magnetometer, white noise only, written as a CSV export does (6 decimals,
+    the magnetometer 4): nothing may be named, and no more statistics fall outside than chance leaves. The twin
+    had named quantisation on all three sensors (the replicas' values were not printed so, and their value step
+    was a fraction of the file's) and left 6.0-8.7 % outside. Chance is 2/(n+1) per statistic; the bound is
+    three binomial standard deviations above it (about 7.9 % of 448): statistics of one family are correlated,
+    which widens the spread, and 22 clean synthetic recordings of four kinds measured 0-5.6 %."""
+    for seed in (1, 3):
+        rec, truth, mag = hand_session(seed)
+        raw = {"accel": np.round(rec["accel"], 6), "gyro": np.round(rec["gyro"], 6), "mag": np.round(mag, 4)}
+        session = recording_session(np.round(rec["t"], 6), raw, units={"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"},
+                                    source=f"<hand {seed}>", gravity=G, field_uT=truth.field_uT, sample_rate_hz=50.0)
+        report = analyse_twin(session, replicas=40, attribution_replicas=6)
+        assert report["causes"] == [], [(c["effect"], c["sensor"]) for c in report["causes"]]
+        n, out = report["summary"]["statistics"], len(report["summary"]["outside_before"])
+        chance = 2 / (40 + 1)
+        assert out <= n * chance + 3 * np.sqrt(n * chance * (1 - chance)), (seed, out, n)
 
 
 def test_a_hand_whose_rate_axis_keeps_turning_is_replayed_as_it_moved():
