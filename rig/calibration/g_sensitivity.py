@@ -18,7 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from rig.calibration.result import GSensitivity, TriadCalibration
-from rig.regression import nested_f
+from rig.calibration.regression import nested_f
 from rig.session_data import SessionData, filled
 from rig.units import DEG, STANDARD_GRAVITY
 

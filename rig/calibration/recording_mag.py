@@ -15,7 +15,6 @@ is said in a warning, not refused.
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
 from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
 from rig.calibration.recording_checks import imported_columns
@@ -100,7 +99,8 @@ def near_rails(y: np.ndarray, found: list, poses: list[Pose]) -> np.ndarray:
     samples that noise carries beyond it read the rail, those it leaves inside are the lower tail alone, and
     their mean is off (leaving out only the rail's own samples kept B 5.8 of its deviations off)."""
     sd = np.nanmedian([np.nanstd(y[p.rows], axis=0, ddof=1) for p in poses], axis=0)
-    smooth = uniform_filter1d(filled(y), RAIL_WINDOW, axis=0)
+    kernel = np.ones(RAIL_WINDOW) / RAIL_WINDOW
+    smooth = np.stack([np.convolve(column, kernel, mode="same") for column in filled(y).T], axis=1)
     near = np.zeros(len(y), dtype=bool)
     for r in found:
         near |= np.abs(smooth[:, r.axis] - r.value) < RAIL_SIGMAS * sd[r.axis]

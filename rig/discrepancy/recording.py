@@ -16,10 +16,10 @@ import numpy as np
 
 from rig.calibration.g_sensitivity import still_for_the_gyro
 from rig.calibration.recording import RecordingCalibration
+from rig.calibration.regression import nested_f, resvar
 from rig.discrepancy.candidates import POSE_REGRESSORS, RECORDING_TESTS
 from rig.discrepancy.recording_base import Test, subsample
 from rig.effects import EFFECTS
-from rig.regression import nested_f, resvar
 from rig.session_data import SessionData
 from rig.units import DEG
 

@@ -1,9 +1,9 @@
 """What `rig calibrate --from` calibrates with loads no scipy, filterpy or simulated hardware (issue 17, start-up).
 
 The modules below are the calibration math of a recorded session (the vector and gyro solvers, the lever
-arm, rotations, the session data). Each is imported in a fresh interpreter, so one that pulls a heavy package
-in is named. (rig.pipeline belongs here too once its package stops importing the turntable-free solver,
-which needs scipy.optimize, for every format.)
+arm, rotations, the session data, the recordings' fits and the pipeline itself). Each is imported in a fresh
+interpreter, so one that pulls a heavy package in is named: the recordings' g-sensitivity test once took
+scipy.stats along (0.6 s, on every `rig calibrate`, the simulated session's included).
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ import pytest
 CALIBRATION_PATH = ["rig.calibration.gyro", "rig.calibration.gyro_start", "rig.calibration.joint",
                     "rig.calibration.lever_arm", "rig.calibration.twostep", "rig.calibration.ellipsoid",
                     "rig.calibration.quantisation", "rig.calibration.integrate", "rig.rotations", "rig.quaternions",
-                    "rig.session_data", "rig.unscented"]
+                    "rig.session_data", "rig.unscented", "rig.calibration.regression", "rig.calibration.recording",
+                    "rig.pipeline.run"]
 HEAVY = {"scipy", "filterpy", "fixtures", "procedures", "drivers", "pymodbus", "matplotlib", "tqdm"}
 LIGHT = {"drivers", "drivers.units"}     # the standard gravity the drivers scale by; the package loads nothing else
 
