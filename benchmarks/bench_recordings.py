@@ -34,7 +34,8 @@ sys.path[:0] = [str(ROOT)]
 from rig.calibration.heldout import carry_error_deg, heldout_scores, score_series, scoring_layout  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.calibration.recording_fits import gyro_rotation_fit  # noqa: E402
-from rig.calibration.recording_gyro import gravity_directions, motion  # noqa: E402
+from rig.calibration.recording_gyro import motion  # noqa: E402
+from rig.calibration.recording_vector import gravity_directions  # noqa: E402
 from rig.calibration.static_detect import initial_interval  # noqa: E402
 from rig.io.import_ferraris import import_ferraris  # noqa: E402
 from rig.io.import_imu_tk import import_imu_tk  # noqa: E402

@@ -21,6 +21,7 @@ from procedures.twin import Replay
 from procedures.twin_bands import band_chance
 from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
+from rig.discrepancy.stats import holm
 from rig.noise.allan import allan_deviation, fit_noise
 from rig.noise.statistics import on_grid, value_step
 from rig.effects import unit_for
@@ -70,12 +71,7 @@ def off_families(real: dict, bands: dict, off: set[str], replicas: int, alpha: f
         m = sum(1 for n in real if n in bands and family(n) == fam)
         k = sum(1 for n in off if family(n) == fam)
         tails[fam] = sum(math.comb(m, j) * p ** j * (1 - p) ** (m - j) for j in range(k, m + 1))
-    out = set()
-    for i, (fam, tail) in enumerate(sorted(tails.items(), key=lambda kv: kv[1])):
-        if tail >= alpha / (len(tails) - i):
-            break
-        out.add(fam)
-    return out
+    return {fam for fam, adjusted in zip(tails, holm(list(tails.values()))) if adjusted < alpha}
 
 
 def family(name: str) -> str:

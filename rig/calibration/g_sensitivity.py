@@ -27,6 +27,17 @@ MIN_DOF = 2                 # per axis, after the 5 columns [1, f, t]
 STILL_K = 6.0               # imu_tk's threshold multiplier on its own Xsens data (heldout.REST_K)
 
 
+def pose_means(session: SessionData, sensors: dict[str, TriadCalibration],
+               pose_rows: list[np.ndarray]) -> dict[str, np.ndarray]:
+    """Per pose: mid time `t` (s), calibrated specific force `f` (m/s^2) and, with a gyro, its calibrated mean
+    rate `w` (rad/s): what the g-sensitivity fit here and the discrepancy analysis's pose tests regress."""
+    out = {"t": np.array([session.t[r].mean() for r in pose_rows]),
+           "f": np.array([sensors["accel"].apply(_mean(session.raw["accel"][r]))[0] for r in pose_rows])}
+    if "gyro" in sensors:
+        out["w"] = np.array([sensors["gyro"].apply(_mean(session.raw["gyro"][r]))[0] for r in pose_rows])
+    return out
+
+
 def fit_g_sensitivity(session: SessionData, sensors: dict[str, TriadCalibration],
                       pose_rows: list[np.ndarray]) -> GSensitivity | None:
     """K (raw gyro unit per m/s^2) from the poses' means, or None where the poses are too few or it is not
@@ -37,9 +48,8 @@ def fit_g_sensitivity(session: SessionData, sensors: dict[str, TriadCalibration]
     if len(pose_rows) < 5 + MIN_DOF:
         return None
     accel, gyro = sensors["accel"], sensors["gyro"]
-    f = np.array([accel.apply(_mean(session.raw["accel"][r]))[0] for r in pose_rows])
-    w = np.array([gyro.apply(_mean(session.raw["gyro"][r]))[0] for r in pose_rows])
-    t = np.array([session.t[r].mean() for r in pose_rows])
+    means = pose_means(session, sensors, pose_rows)
+    f, w, t = means["f"], means["w"], means["t"]
     ones, hours = np.ones((len(t), 1)), (t - t.mean())[:, None] / 3600.0
     p, coef, _ = nested_f(np.hstack([ones, f, hours]), np.hstack([ones, hours]), w)
     if not p < ALPHA:

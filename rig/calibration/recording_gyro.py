@@ -13,6 +13,7 @@ from rig.calibration.recording_fits import (
     gyro_rotation_fit,
     turn_angle,
 )
+from rig.calibration.recording_vector import gravity_directions
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import Pose, Turn
 from rig.calibration.turntable_free import GAP_FACTOR
@@ -88,17 +89,6 @@ def summed_rate(session: SessionData, rows: np.ndarray, B: np.ndarray) -> np.nda
     ok = ~np.isnan(y).any(axis=1)
     y, t = y[ok], t[ok]
     return (y[:-1] * np.diff(t)[:, None]).sum(axis=0)
-
-
-def gravity_directions(session: SessionData, accel: TriadCalibration, poses: list[Pose]) -> np.ndarray:
-    """Unit gravity direction of every pose from the calibrated accelerometer, (k, 3)."""
-    y = session.raw["accel"]
-    out = []
-    for p in poses:
-        v = y[p.rows]
-        a = accel.apply(v[~np.isnan(v).any(axis=1)].mean(axis=0, keepdims=True))[0]
-        out.append(a / np.linalg.norm(a))
-    return np.array(out)
 
 
 def motion(session: SessionData, a: Pose, b: Pose) -> MoveStream:

@@ -18,6 +18,7 @@ import numpy as np
 
 from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
 from rig.calibration.recording_checks import imported_columns
+from rig.calibration.recording_vector import gravity_directions
 from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.segments import Pose
@@ -70,8 +71,7 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
         B, S = sphere_start(y, norm)
         poses = kept
     means = np.array([y_all[p.rows][usable[p.rows]].mean(axis=0) for p in poses])
-    g = accel.apply(np.array([_accel_mean(session, p) for p in poses]))
-    g /= np.linalg.norm(g, axis=1, keepdims=True)
+    g = gravity_directions(session, accel, poses)
     turns = [(rows[usable[rows]], axis, sd) for rows, axis, sd in turns if usable[rows].sum() >= MIN_TURN_SAMPLES]
     groups = [(means, g)] + [_turn_group(y_all, rows, axis) for rows, axis, _ in turns]
     Q, _ = best_rotation(S, B, groups, norm)
@@ -112,11 +112,6 @@ def near_rails(y: np.ndarray, found: list, poses: list[Pose]) -> np.ndarray:
 def _turn_group(y_all: np.ndarray, rows: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rows = rows[::max(1, len(rows) // TURN_SAMPLES)]
     return y_all[rows], np.tile(axis / np.linalg.norm(axis), (len(rows), 1))
-
-
-def _accel_mean(session: SessionData, p: Pose) -> np.ndarray:
-    a = session.raw["accel"][p.rows]
-    return a[~np.isnan(a).any(axis=1)].mean(axis=0)
 
 
 def _undisturbed(session: SessionData, poses: list[Pose], usable: np.ndarray, B: np.ndarray, S: np.ndarray,

@@ -65,3 +65,14 @@ def _norm_only_fit(session: SessionData, sensor: str, poses: list[Pose], norm: f
                             residual_rms=rms, extra={"poses": [p.name for p in poses],
                                                      "pose_norm_error": (np.linalg.norm((means - B) @ H.T, axis=1)
                                                                          - norm).tolist(), "cost": cost})
+
+
+def gravity_directions(session: SessionData, accel: TriadCalibration, poses: list[Pose]) -> np.ndarray:
+    """Unit gravity direction of every pose from the calibrated accelerometer, (k, 3)."""
+    y = session.raw["accel"]
+    out = []
+    for p in poses:
+        v = y[p.rows]
+        a = accel.apply(v[~np.isnan(v).any(axis=1)].mean(axis=0, keepdims=True))[0]
+        out.append(a / np.linalg.norm(a))
+    return np.array(out)

@@ -71,6 +71,11 @@ class Coarseness:
                 f"samples can be integrated here: sample faster or move slower")
 
 
+def rotation_steps(moves: list[MoveStream], B: np.ndarray, H: np.ndarray) -> list[np.ndarray]:
+    """The angle (rad) each motion turns between consecutive samples, at the rate `H (y - B)`."""
+    return [np.linalg.norm((m.y[1:] - B) @ H.T, axis=1) * np.diff(m.t) for m in moves]
+
+
 def coarseness(moves: list[MoveStream], B: np.ndarray, H: np.ndarray, rate_noise_counts: np.ndarray,
                samples: str = "point", margin: float = MARGIN) -> Coarseness:
     """Step doubling of every motion at a calibration H (a nominal one is enough: the comparison is relative).
@@ -85,7 +90,7 @@ def coarseness(moves: list[MoveStream], B: np.ndarray, H: np.ndarray, rate_noise
     excess = max(float(np.mean(d ** 2) - np.mean(walk)), 0.0)
     error = np.sqrt(excess) / (2 ** ORDER - 1)
     noise = float(np.sqrt(np.mean(walk)))
-    steps = [np.linalg.norm((m.y[1:] - B) @ H.T, axis=1) * np.diff(m.t) for m in moves]
+    steps = rotation_steps(moves, B, H)
     worst_deg = float(np.degrees(max(float(np.max(step)) for step in steps)))
     path = float(np.sqrt(np.mean([np.sum(step) ** 2 for step in steps])))      # a full turn's net rotation is 0
     found = Coarseness(worst_deg, float(error), noise, float("inf"), len(moves), path, margin)

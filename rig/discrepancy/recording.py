@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.g_sensitivity import still_for_the_gyro
+from rig.calibration.g_sensitivity import pose_means, still_for_the_gyro
 from rig.calibration.recording import RecordingCalibration
 from rig.calibration.regression import nested_f, resvar
 from rig.discrepancy.candidates import POSE_REGRESSORS, RECORDING_TESTS
 from rig.discrepancy.recording_base import Test, subsample
+from rig.discrepancy.stats import holm
 from rig.effects import EFFECTS
 from rig.session_data import SessionData
 from rig.units import DEG
@@ -30,13 +31,10 @@ def pose_table(session: SessionData, rec: RecordingCalibration) -> dict[str, np.
     """Per static pose: mid time, calibrated specific force (m/s^2), gyro mean (rad/s) and whether the gyro saw it
     still (`still_for_the_gyro`: a turn about the vertical that the accelerometer's detector took for part of a
     pose is not a bias at that specific force, and one such pose hid a g-sensitivity of 0.1 deg/s per g)."""
-    acc, gyr = rec.sensors["accel"], rec.sensors.get("gyro")
     rows = [p.rows for p in rec.poses]
-    out = {"t": np.array([session.t[r].mean() for r in rows]),
-           "f": np.array([acc.apply(_mean(session.raw["accel"][r])[None])[0] for r in rows]),
-           "face": np.array([p.up is not None for p in rec.poses])}
-    if gyr is not None:
-        out["w"] = np.array([gyr.apply(_mean(session.raw["gyro"][r])[None])[0] for r in rows])
+    out = pose_means(session, rec.sensors, rows)
+    out["face"] = np.array([p.up is not None for p in rec.poses])
+    if "w" in out:
         out["gyro_still"] = still_for_the_gyro(session, rows)
     return out
 
@@ -83,16 +81,7 @@ def recording_tests(session: SessionData, rec: RecordingCalibration, *,
     for name in EFFECTS:
         if name in RECORDING_TESTS:
             tests += RECORDING_TESTS[name](session, rec, table, rng)
-    order = np.argsort([t.p for t in tests])
-    holm = np.zeros(len(tests))
-    running = 0.0
-    for rank, i in enumerate(order):
-        running = max(running, min(1.0, (len(tests) - rank) * tests[i].p))
-        holm[i] = running
+    adjusted = holm([t.p for t in tests])
     return [{"effect": t.effect, "sensor": t.sensor, "magnitude": t.magnitude, "unit": t.unit,
              "uncertainty": t.uncertainty, "p": t.p, "p_holm": float(h), "significant": bool(h < ALPHA),
-             "params": t.params} for t, h in zip(tests, holm)]
-
-
-def _mean(v: np.ndarray) -> np.ndarray:
-    return v[~np.isnan(v).any(axis=1)].mean(axis=0)
+             "params": t.params} for t, h in zip(tests, adjusted)]

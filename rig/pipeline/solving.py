@@ -14,7 +14,7 @@ import numpy as np
 from rig.calibration import gyro, joint, lever_arm, observability, twostep
 from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
 from rig.calibration.result import TriadCalibration
-from rig.calibration.sampling import TABLE_MARGIN, refuse_coarse_motions
+from rig.calibration.sampling import TABLE_MARGIN, refuse_coarse_motions, rotation_steps
 from rig.errors import CalibrationError
 from rig.pipeline.screening import trusted_moves
 from rig.rotations import matrix_from_quat
@@ -108,7 +108,7 @@ def warn_coarse_sampling(moves: list[MoveStream], cal: TriadCalibration, warning
     was: the move's angle is off by up to a/8 dt^2. Measured on the second independent simulator: 5.7 deg per
     sample (200 deg/s on both axes at 50 Hz) leaves a gyro H error of up to 0.022 % with point samples (0.004 %
     with mean samples); 2.8 deg per sample (the same at 100 Hz) 0.005 %."""
-    worst = max(float(np.max(np.linalg.norm((m.y - cal.B) @ cal.H.T, axis=1)[1:] * np.diff(m.t))) for m in moves)
+    worst = max(float(np.max(step)) for step in rotation_steps(moves, cal.B, cal.H))
     if np.degrees(worst) > COARSE_DEG_PER_SAMPLE:
         warnings.append(f"gyro: the table turns up to {np.degrees(worst):.3g} deg between samples; above "
                         f"{COARSE_DEG_PER_SAMPLE:g} deg the integration between samples limits H to a few 0.01 % "
