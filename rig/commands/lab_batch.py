@@ -39,7 +39,9 @@ def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
         try:
             keys = store.select_keys(filters)
             if not keys:
-                click.echo(f"no session in {store.describe()} matches {' '.join(where) or '(everything)'}")
+                if not where or not store.select_keys(Filters.from_where(())):
+                    raise CommandError(_no_session(store), Exit.BAD_INPUT)
+                click.echo(f"no session in {store.describe()} matches {' '.join(where)}")
                 write_json(json_out, {"schema": "rig-batch/1", "kind": kind, "sessions": 0, "ok": 0, "failed": []})
                 return
             try:
@@ -59,6 +61,19 @@ def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
     if summary["failed"]:
         click.echo(f"{len(summary['failed'])} sessions could not be analysed (their reasons are stored)", err=True)
         sys.exit(Exit.FAILED)
+
+
+def _no_session(store) -> str:
+    """Why a store with no session at all is an input error: a wrong folder, or one of interchange recordings,
+    which batch does not read (they have no rig session store)."""
+    from rig.lab.local import interchange_folders
+
+    found = interchange_folders(store.describe()) if store.kind == "folder" else []
+    if not found:
+        return f"{store.describe()}: no session recorded by rig in it; nothing was analysed"
+    return (f"{store.describe()}: no session recorded by rig in it, but {len(found)} interchange "
+            f"recording{'s' if len(found) != 1 else ''} (e.g. {found[0]}), which batch does not read; run "
+            "`rig calibrate --from DIR` or `rig discrepancy DIR` on each; nothing was analysed")
 
 
 def _replay():

@@ -205,3 +205,11 @@ def session_folders(root: str | Path) -> list[Path]:
     if not root.is_dir():
         raise StoreInputError(f"{root}: no such folder")
     return sorted(p.parent for p in root.rglob(SESSION_FILE) if p.is_file())
+
+
+def interchange_folders(root: str | Path) -> list[Path]:
+    """Folders under `root` laid out as interchange sessions (`meta.json` beside `samples.csv`, session-csv.md):
+    imported recordings and exports, which the store does not read as sessions of its own, so a command that
+    finds none of those can say what it found instead."""
+    root = Path(root)
+    return sorted(p.parent for p in root.rglob("samples.csv") if (p.parent / "meta.json").is_file())
