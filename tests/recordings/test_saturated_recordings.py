@@ -117,3 +117,23 @@ def test_with_segments_a_clipped_turn_is_left_out_and_clipped_faces_are_named():
         assert "2 poses with accel.x pinned at -1900" in str(exc) and "saturated" in str(exc), exc
     else:
         raise AssertionError("faces clipped on x were calibrated")
+
+
+def test_both_ends_of_a_twos_complement_code_are_rails_once_one_of_them_piles_up():
+    """An MPU-6050 logged in counts (tomisuarez2/ImuCalibration's session): its gyro x piled 10 samples at -32768
+    and touched +32767 twice in another motion, too few for a pile; that motion was fitted as if whole. A pile at
+    -2^15 says the code is 16 bits: +32767 is its other end, on every axis of the sensor."""
+    from rig.calibration.saturation import pinned_rows
+
+    rng = np.random.default_rng(3)
+    y = np.round(rng.normal(0, 4000.0, (3000, 3)))
+    y[100:110, 0] = -32768.0                                  # a pile: clipped
+    y[500:502, 0] = 32767.0                                   # two samples at the other end
+    y[900, 2] = 32767.0                                       # one on another axis
+    y[1200, 1] = 30000.0                                      # an extreme that is no end of the code
+    found, hit = pinned_rows(y)
+    assert {(r.axis, r.value) for r in found} == {(0, -32768.0), (0, 32767.0), (2, 32767.0)}
+    assert hit[[100, 500, 501, 900]].all() and not hit[1200]
+    alone = np.round(rng.normal(0, 4000.0, (3000, 3)))
+    alone[7, 1] = 32767.0                                     # without a pile, one sample proves nothing
+    assert pinned_rows(alone)[0] == []
