@@ -27,7 +27,7 @@ from rig.calibration.recording_mag import calibrate_recording_mag
 from rig.calibration.recording_vector import vector_fit
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
-from rig.calibration.turntable_free import calibrate_turntable_free
+from rig.calibration.turntable_free import INITIAL_REST_S, calibrate_turntable_free
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
 
@@ -130,7 +130,8 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
     try:
         sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity,
-                                           columns={s: imported_columns(session, s) for s in ("accel", "gyro")})
+                                           columns={s: imported_columns(session, s) for s in ("accel", "gyro")},
+                                           init_static_s=float(session.meta.get("initial_rest_s") or INITIAL_REST_S))
     except (CalibrationError, ValueError) as exc:       # name the recording, as every other refusal here does
         raise CalibrationError(f"{session.source}: {exc}") from None
     intervals = sensors["accel"].extra["intervals"]

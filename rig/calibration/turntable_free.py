@@ -36,7 +36,9 @@ from rig.calibration.static_detect import (
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream
 
-MIN_INTERVALS = 12          # imu_tk's minimum number of static intervals
+MIN_INTERVALS = 10          # the accelerometer's 9 unknowns and one pose to spare, so that its fit has a residual
+IMU_TK_INTERVALS = 12       # imu_tk's own minimum: fewer is fitted, with a warning
+INITIAL_REST_S = 50.0       # imu_tk's initial static interval, unless the recording says its own (initial_rest_s)
 SAMPLES_PER_INTERVAL = 100  # imu_tk's interval_n_samples
 UPPER = np.triu_indices(3)
 POOR_FIT_UNIT = 0.05        # rms gravity-direction misfit (unit vector components); imu_tk's Xsens fit: 0.012
@@ -44,7 +46,7 @@ GAP_FACTOR = 5.0            # a motion whose samples have a gap longer than this
 
 
 def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, *, gravity: float = 9.80665,
-                             init_static_s: float = 50.0, k_values: range | tuple = range(2, 11),
+                             init_static_s: float = INITIAL_REST_S, k_values: range | tuple = range(2, 11),
                              window_s: float = 1.0, columns: dict[str, list[str]] | None = None
                              ) -> dict[str, TriadCalibration]:
     """{'accel': ..., 'gyro': ...} from raw counts of a hand-held multi-position record.
@@ -101,7 +103,8 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
             # intervals then blames poses a user did record.
             raise CalibrationError(f"turntable-free: the first {init_static_s:g} s are not at rest (the unit moves "
                                    "in them); imu_tk's method takes its static threshold and the gyro bias from an "
-                                   f"initial rest of {init_static_s:g} s, so record one before the first pose")
+                                   f"initial rest of {init_static_s:g} s, so record one before the first pose "
+                                   "(or say the rest the recording has: `rig import ... --initial-rest-s S`)")
         if saturated:
             raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals left for every k in "
                                    f"{list(k_values)} once the {saturated} with a saturated accelerometer are left "
@@ -118,6 +121,10 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
                 f"{best['saturated'] + len(best['intervals'])} static intervals read a sample at a rail and were left "
                 "out of the fit "
                 "(saturated: the pose's gravity beyond the range)"] if best["saturated"] else []
+    if len(best["chunks"]) < IMU_TK_INTERVALS:
+        warnings.append(f"only {len(best['chunks'])} static intervals for the accelerometer's 9 unknowns (imu_tk asks "
+                        f"for at least {IMU_TK_INTERVALS}, Tedaldi et al. recommend 36-50): its fit has little to "
+                        "spare against a pose placed badly")
     return TriadCalibration(B=best["B"], H=best["H"],
                             method="turntable-free-accel (imu_tk convention: upper-triangular H)",
                             residual_rms=rms(best["chunks"]), iterations=len(sweep), warnings=warnings,

@@ -21,6 +21,12 @@ def _out_option(f):
                         help="Session folder to write (meta.json + samples.csv).")(f)
 
 
+def _initial_rest_option(f):
+    return click.option("--initial-rest-s", type=FiniteFloat(0, low_open=True), default=None,
+                        help="Seconds of rest the recording starts with (imu_tk's initial static interval: the "
+                        "static threshold and the gyro bias); default 50.")(f)
+
+
 def _gravity_option(f):
     return click.option("--gravity", type=FiniteFloat(0, low_open=True), default=9.80665, show_default=True,
                         help="Local gravity magnitude, m/s^2.")(f)
@@ -78,14 +84,15 @@ def import_group() -> None:
 @click.option("--gyro", required=True, type=click.Path(dir_okay=False), help="imu_tk gyroscope file.")
 @click.option("--mag", type=click.Path(dir_okay=False), help="imu_tk magnetometer file.")
 @click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True), help="Local field magnitude, uT (with --mag).")
+@_initial_rest_option
 @_gravity_option
 @_out_option
-def import_imu_tk(accel, gyro, mag, field_uT, gravity, out, force):
+def import_imu_tk(accel, gyro, mag, field_uT, initial_rest_s, gravity, out, force):
     """imu_tk ASCII files (timestamp x y z, raw counts), sampled together."""
     from rig.io.import_imu_tk import import_imu_tk as build
 
     files = {"accel": accel, "gyro": gyro, **({"mag": mag} if mag else {})}
-    _run(lambda: build(files, gravity=gravity, field_uT=field_uT), out, force)
+    _run(lambda: build(files, gravity=gravity, field_uT=field_uT, initial_rest_s=initial_rest_s), out, force)
 
 
 @import_group.command("ferraris")
@@ -127,11 +134,14 @@ def import_ferraris(csv_file, sections, annotated, rate_hz, units, turn_deg, til
 @click.option("--units", default=None,
               help="Units, e.g. accel=m/s^2,gyro=deg/s,mag=uT (also g, rad/s, gauss, mG; default: counts).")
 @click.option("--delimiter", default=",", show_default=True)
+@click.option("--header-line", type=click.IntRange(1), default=1, show_default=True,
+              help="Line of the column names, for a logger that prints its settings above them.")
 @click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True), help="Local field magnitude, uT (with --mag).")
+@_initial_rest_option
 @_gravity_option
 @_out_option
-def import_csv(file, time_column, time_unit, rate_hz, accel, gyro, mag, temp_column, units, delimiter, field_uT,
-               gravity, out, force):
+def import_csv(file, time_column, time_unit, rate_hz, accel, gyro, mag, temp_column, units, delimiter, header_line,
+               field_uT, initial_rest_s, gravity, out, force):
     """Any logger's CSV, given which columns hold what."""
     from rig.io.import_csv import import_csv as build
     from rig.io.recording import parse_units
@@ -144,5 +154,6 @@ def import_csv(file, time_column, time_unit, rate_hz, accel, gyro, mag, temp_col
     def session():
         return build(file, sensors, units=parse_units(units, list(sensors)), time_column=time_column,
                      time_unit=time_unit, rate_hz=rate_hz, temp_column=temp_column, delimiter=delimiter,
-                     gravity=gravity, field_uT=field_uT)
+                     gravity=gravity, field_uT=field_uT, header_line=header_line,
+                     initial_rest_s=initial_rest_s)
     _run(session, out, force)

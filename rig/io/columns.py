@@ -30,31 +30,51 @@ EMPTY_FLOAT = float(EMPTY)
 INTEGER = re.compile(r"[+-]?\d+")
 
 
-def read_header(path: Path, delimiter: str = ",") -> list[str]:
-    """The header row's names, stripped; an empty or repeated name is an error naming the file and line 1."""
+def read_header(path: Path, delimiter: str = ",", header_line: int = 1) -> list[str]:
+    """The header row's names, stripped; an empty or repeated name is an error naming the file and the line.
+    `header_line` is where it is (1-based): a logger that prints its settings above the columns."""
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
+            for _ in range(header_line - 1):
+                f.readline()
             first = f.readline()
     except FileNotFoundError:
         raise SessionFormatError(path, "no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SessionFormatError(path, f"cannot be read as text: {exc}") from None
     if not first.strip():
-        raise SessionFormatError(path, "empty file: a header row is required", 1)
+        raise SessionFormatError(path, "empty file: a header row is required" if header_line == 1 else
+                                 "no header row here (the line is empty or beyond the end of the file)", header_line)
     header = [h.strip() for h in next(csv.reader([first], delimiter=delimiter))]
     seen: set[str] = set()
     for name in header:
         if not name:
-            raise SessionFormatError(path, "empty column name in the header", 1)
+            raise SessionFormatError(path, "empty column name in the header", header_line)
         if name in seen:
-            raise SessionFormatError(path, "column named twice in the header", 1, name)
+            raise SessionFormatError(path, "column named twice in the header", header_line, name)
         seen.add(name)
     return header
 
 
+def header_line_holding(path: Path, names: list[str], delimiter: str = ",", within: int = 100) -> int | None:
+    """The first of the file's first `within` lines whose cells hold every one of `names` (1-based), or None:
+    where a header that is not on line 1 is, to tell the user which `--header-line` to give."""
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as f:
+            for line_no, line in enumerate(f, 1):
+                if line_no > within:
+                    break
+                cells = {c.strip() for c in next(csv.reader([line], delimiter=delimiter), [])}
+                if set(names) <= cells:
+                    return line_no
+    except (OSError, UnicodeDecodeError):
+        return None
+    return None
+
+
 def read_columns(path: Path, header: list[str], numeric: list[str], text: list[str] = (), *,
                  integers: tuple[str, ...] = (), delimiter: str = ",",
-                 required: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+                 required: tuple[str, ...] = (), header_line: int = 1) -> dict[str, np.ndarray]:
     """The named columns of every data row: `numeric` as float64 (NaN where empty; those also in `integers` must
     hold integer literals), `text` as str arrays.
 
@@ -63,19 +83,20 @@ def read_columns(path: Path, header: list[str], numeric: list[str], text: list[s
     required cell.
     """
     index = {name: header.index(name) for name in [*numeric, *text]}
+    first = header_line + 1
     out: dict[str, np.ndarray] = {}
     if numeric:
         dtype = np.dtype([(f"c{k}", "i8" if name in integers else "f8") for k, name in enumerate(numeric)])
         try:
-            values = np.loadtxt(_numeric_lines(path, header, delimiter), delimiter=delimiter,
+            values = np.loadtxt(_numeric_lines(path, header, delimiter, header_line), delimiter=delimiter,
                                 usecols=[index[n] for n in numeric], dtype=dtype, ndmin=1, comments=None)
         except SessionFormatError:
             raise            # from _numeric_lines, already naming its line (a ValueError: not to be wrapped again)
         except (ValueError, IndexError, OverflowError) as exc:
-            _raise_first_problem(path, header, numeric, integers, delimiter, required)
+            _raise_first_problem(path, header, numeric, integers, delimiter, required, header_line)
             raise SessionFormatError(path, f"cannot be read as numbers: {exc}") from None
         if values.shape[0] == 0:
-            raise SessionFormatError(path, "no data rows after the header", FIRST_DATA_LINE)
+            raise SessionFormatError(path, "no data rows after the header", first)
         for k, name in enumerate(numeric):
             raw = values[f"c{k}"]
             empty = raw == (EMPTY_INT if name in integers else EMPTY_FLOAT)
@@ -84,26 +105,28 @@ def read_columns(path: Path, header: list[str], numeric: list[str], text: list[s
             if bad.any():
                 i = int(np.argmax(bad))
                 raise SessionFormatError(path, f"{column[i]!r} is not a finite number (leave the cell empty for "
-                                         "'no sample')", i + FIRST_DATA_LINE, name)
+                                         "'no sample')", i + first, name)
             column[empty] = np.nan
             if name in required and empty.any():
                 raise SessionFormatError(path, "empty cell; this column needs a value on every row",
-                                         int(np.argmax(empty)) + FIRST_DATA_LINE, name)
+                                         int(np.argmax(empty)) + first, name)
             out[name] = column
         del values
     for name in text:
-        lines = (line for _, line in _text_lines(path))
+        lines = (line for _, line in _text_lines(path, header_line))
         out[name] = np.char.strip(np.loadtxt(lines, delimiter=delimiter, usecols=[index[name]], dtype="U32", ndmin=1,
                                              comments=None, quotechar='"'))
     return out
 
 
-def _text_lines(path: Path) -> Iterator[tuple[int, str]]:
-    """The data lines; blank lines may only end the file (elsewhere they would shift every line number)."""
+def _text_lines(path: Path, header_line: int = 1) -> Iterator[tuple[int, str]]:
+    """The data lines, after the header; blank lines may only end the file (elsewhere they would shift every
+    line number)."""
     with open(path, encoding="utf-8-sig", newline="") as f:
-        next(f, None)
+        for _ in range(header_line):
+            next(f, None)
         blank = None
-        for line_no, line in enumerate(f, FIRST_DATA_LINE):
+        for line_no, line in enumerate(f, header_line + 1):
             line = line.rstrip("\r\n")
             if not line.strip():
                 blank = blank or line_no
@@ -114,13 +137,13 @@ def _text_lines(path: Path) -> Iterator[tuple[int, str]]:
             yield line_no, line
 
 
-def _numeric_lines(path: Path, header: list[str], delimiter: str) -> Iterator[str]:
+def _numeric_lines(path: Path, header: list[str], delimiter: str, header_line: int = 1) -> Iterator[str]:
     """Data lines with every empty cell written as the EMPTY sentinel for the C parser; a line with another
     number of cells than the header is refused here (the parser, reading only some columns, would not)."""
     empty = delimiter + delimiter
     filled = delimiter + EMPTY + delimiter
     width = len(header)
-    for line_no, line in _text_lines(path):
+    for line_no, line in _text_lines(path, header_line):
         if line.count(delimiter) != width - 1 and '"' not in line:
             cells = line.count(delimiter) + 1
             raise SessionFormatError(path, f"row has {cells} cells, the header has {width}", line_no,
@@ -140,15 +163,16 @@ def _numeric_lines(path: Path, header: list[str], delimiter: str) -> Iterator[st
 
 
 def _raise_first_problem(path: Path, header: list[str], numeric: list[str], integers: tuple[str, ...],
-                         delimiter: str, required: tuple[str, ...]) -> None:
+                         delimiter: str, required: tuple[str, ...], header_line: int = 1) -> None:
     """Stream the rows again to name the first bad one; returns only if it finds nothing (then the caller
     reports the parser's own error)."""
     cols = [(name, header.index(name)) for name in numeric]
     with open(path, encoding="utf-8-sig", newline="") as f:
+        for _ in range(header_line):
+            f.readline()
         reader = csv.reader(f, delimiter=delimiter)
-        next(reader, None)
         rows = 0
-        for line_no, row in enumerate(reader, FIRST_DATA_LINE):
+        for line_no, row in enumerate(reader, header_line + 1):
             if not row or not "".join(row).strip():
                 continue
             rows += 1
@@ -175,7 +199,7 @@ def _raise_first_problem(path: Path, header: list[str], numeric: list[str], inte
                     raise SessionFormatError(path, f"{cell!r} is not a finite number (leave the cell empty for "
                                              "'no sample')", line_no, name)
         if rows == 0:
-            raise SessionFormatError(path, "no data rows after the header", FIRST_DATA_LINE)
+            raise SessionFormatError(path, "no data rows after the header", header_line + 1)
 
 
 def cell_text(path: Path, line_no: int, column: str, delimiter: str = ",") -> str:

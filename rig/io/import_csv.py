@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.errors import InputError, SessionFormatError
-from rig.io.columns import FIRST_DATA_LINE, read_columns, read_header
+from rig.io.columns import header_line_holding, read_columns, read_header
 from rig.io.recording import STANDARD_GRAVITY, check_counts, recording_session, to_session_units
 from rig.session_data import SessionData
 
@@ -22,8 +22,10 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units: dict[str, str],
                time_column: str | None = None, time_unit: str = "s", rate_hz: float | None = None,
                temp_column: str | None = None, delimiter: str = ",", gravity: float = STANDARD_GRAVITY,
-               field_uT: float | None = None) -> SessionData:
-    """`sensors`: sensor -> its three column names (sensor axes x, y, z); `units`: sensor -> unit of those."""
+               field_uT: float | None = None, header_line: int = 1,
+               initial_rest_s: float | None = None) -> SessionData:
+    """`sensors`: sensor -> its three column names (sensor axes x, y, z); `units`: sensor -> unit of those;
+    `header_line`: the line of the column names (1-based), for a logger that prints its settings above them."""
     path = Path(path)
     if (time_column is None) == (rate_hz is None):
         raise InputError("give either --time COLUMN (with --time-unit) or --rate-hz R for a file without time stamps")
@@ -33,18 +35,23 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
         raise InputError(f"--rate-hz {rate_hz!r}: must be a positive number")
     if "mag" in sensors and field_uT is None:
         raise InputError("a magnetometer needs the local field magnitude: give --field-uT")
-    header = read_header(path, delimiter)
+    if header_line < 1:
+        raise InputError(f"--header-line {header_line}: lines count from 1")
+    header = read_header(path, delimiter, header_line)
     wanted = [*([time_column] if time_column else []), *(c for cols in sensors.values() for c in cols),
               *([temp_column] if temp_column else [])]
     for name in wanted:
         if name not in header:
+            there = header_line_holding(path, wanted, delimiter)
+            hint = f"; line {there} has every column named: give --header-line {there}" if there else ""
             raise SessionFormatError(path, f"column {name!r} (named on the command line) is not in the header; it has "
-                                     f"{', '.join(header)}", 1, name)
+                                     f"{', '.join(header)}{hint}", header_line, name)
     if len(set(wanted)) != len(wanted):
         twice = next(c for c in wanted if wanted.count(c) > 1)
         raise InputError(f"column {twice!r} is named twice on the command line")
+    first = header_line + 1
     cols = read_columns(path, header, wanted, delimiter=delimiter,
-                        required=(*([time_column] if time_column else []),))
+                        required=(*([time_column] if time_column else []),), header_line=header_line)
     n = len(cols[wanted[0]])
     if time_column:
         t = cols[time_column] * TIME_UNITS[time_unit]
@@ -52,7 +59,7 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
         if back.size:
             i = int(back[0]) + 1
             raise SessionFormatError(path, f"time {cols[time_column][i]:g} {time_unit} is not after the previous row's "
-                                     f"{cols[time_column][i - 1]:g}", i + FIRST_DATA_LINE, time_column)
+                                     f"{cols[time_column][i - 1]:g}", i + first, time_column)
     else:
         t = np.arange(n) / float(rate_hz)
     raw = {s: np.column_stack([cols[c] for c in names]) for s, names in sensors.items()}
@@ -66,14 +73,16 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
             i = int(partial[0])
             given = ", ".join(n for k, n in enumerate(names) if not empty[i, k])
             raise SessionFormatError(path, f"empty cell, but the {sensor}'s {given} on this row have a value; a "
-                                     "sample has all three axes or none", i + FIRST_DATA_LINE,
+                                     "sample has all three axes or none", i + first,
                                      names[int(np.argmax(empty[i]))])
-    lines = np.arange(n) + FIRST_DATA_LINE
+    lines = np.arange(n) + first
     check_counts(raw, units, {s: (str(path), names, lines) for s, names in sensors.items()})
     raw, kept = to_session_units(raw, units)
     rate = rate_hz if rate_hz is not None else (float(1.0 / np.median(np.diff(t))) if n > 1 else None)
     return recording_session(t, raw, units=kept, gravity=gravity, field_uT=field_uT, sample_rate_hz=rate,
                              temp_c=cols[temp_column] if temp_column else None, source=str(path),
+                             initial_rest_s=initial_rest_s,
                              imported={"format": "csv", "file": str(path), "columns": sensors,
                                        "units": units, "time": time_column or f"rows at {rate_hz:g} Hz",
+                                       **({"header_line": header_line} if header_line != 1 else {}),
                                        **({"time_unit": time_unit} if time_column else {})})

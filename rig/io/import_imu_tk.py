@@ -20,7 +20,7 @@ STAMP_TOLERANCE_S = 1e-6
 
 
 def import_imu_tk(files: dict[str, str | os.PathLike], *, gravity: float = STANDARD_GRAVITY,
-                  field_uT: float | None = None) -> SessionData:
+                  field_uT: float | None = None, initial_rest_s: float | None = None) -> SessionData:
     """`files`: sensor ('accel', 'gyro', 'mag') -> its imu_tk file, read as raw counts."""
     if "mag" in files and field_uT is None:
         raise InputError("a magnetometer file needs the local field magnitude: give --field-uT")
@@ -41,7 +41,7 @@ def import_imu_tk(files: dict[str, str | os.PathLike], *, gravity: float = STAND
     check_counts(raw, units, where)
     rate = float(1.0 / np.median(np.diff(t))) if len(t) > 1 else None
     return recording_session(t, raw, units=units, gravity=gravity, field_uT=field_uT, sample_rate_hz=rate,
-                             source=str(first),
+                             source=str(first), initial_rest_s=initial_rest_s,
                              imported={"format": "imu_tk", "files": {s: str(p) for s, p in files.items()}})
 
 

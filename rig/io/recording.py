@@ -26,8 +26,11 @@ IMPORT_UNITS = {
 def recording_session(t: np.ndarray, raw: dict[str, np.ndarray], *, units: dict[str, str], source: str,
                       gravity: float = STANDARD_GRAVITY, field_uT: float | None = None,
                       segments: list[dict] | None = None, temp_c: np.ndarray | None = None,
-                      sample_rate_hz: float | None = None, imported: dict | None = None) -> SessionData:
-    """The session of one recording; `imported` (what was read, how) is kept in its metadata."""
+                      sample_rate_hz: float | None = None, imported: dict | None = None,
+                      initial_rest_s: float | None = None) -> SessionData:
+    """The session of one recording; `imported` (what was read, how) is kept in its metadata, and so is
+    `initial_rest_s`, the rest the user says the recording starts with (imu_tk's initial static interval, which
+    sets its static threshold and the gyro's bias; 50 s when not said)."""
     t = np.asarray(t, dtype=float)
     n = len(t)
     segments = sorted(segments or [], key=lambda s: s["t0"])
@@ -42,7 +45,7 @@ def recording_session(t: np.ndarray, raw: dict[str, np.ndarray], *, units: dict[
         left = np.maximum.accumulate(holds)            # the hold a move row leaves (0 before the first)
         step = np.where(is_move, np.maximum(left, 0), step)
     meta = {"reference": "none", "units": {s: units.get(s, "counts") for s in raw}, "segments": segments,
-            "imported": imported or {}}
+            "imported": imported or {}, **({"initial_rest_s": float(initial_rest_s)} if initial_rest_s else {})}
     return SessionData(t=t, is_move=is_move, step=step, q_ref=np.full((n, 4), np.nan),
                        raw={s: np.asarray(y, dtype=float) for s, y in raw.items()},
                        columns={s: list(DEFAULT_COLUMNS[s]) for s in raw}, gravity=float(gravity),

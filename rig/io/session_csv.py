@@ -162,6 +162,8 @@ def read_meta(path: Path) -> dict:
         _check_positive(meta["field_uT"], "field_uT", fail)
     if meta.get("sample_rate_hz") is not None:
         _check_positive(meta["sample_rate_hz"], "sample_rate_hz", fail)
+    if meta.get("initial_rest_s") is not None:
+        _check_positive(meta["initial_rest_s"], "initial_rest_s", fail)
     reference = meta.get("reference", "table")
     if reference not in REFERENCES:
         fail("reference", f"must be one of {list(REFERENCES)}, got {reference!r}")
