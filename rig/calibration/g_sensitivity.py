@@ -24,7 +24,6 @@ from rig.units import DEG, STANDARD_GRAVITY
 
 ALPHA = 0.01                # as the discrepancy analysis names an effect
 MIN_DOF = 2                 # per axis, after the 5 columns [1, f, t]
-STILL_K = 6.0               # imu_tk's threshold multiplier on its own Xsens data (heldout.REST_K)
 
 
 def pose_means(session: SessionData, sensors: dict[str, TriadCalibration],
@@ -44,7 +43,6 @@ def fit_g_sensitivity(session: SessionData, sensors: dict[str, TriadCalibration]
     significant."""
     if "gyro" not in sensors or "accel" not in sensors:
         return None
-    pose_rows = [r for r, still in zip(pose_rows, still_for_the_gyro(session, pose_rows)) if still]
     if len(pose_rows) < 5 + MIN_DOF:
         return None
     accel, gyro = sensors["accel"], sensors["gyro"]
@@ -59,14 +57,6 @@ def fit_g_sensitivity(session: SessionData, sensors: dict[str, TriadCalibration]
     f_ref = np.nanmean(accel.apply(session.raw["accel"][stills]), axis=0)
     return GSensitivity(K=np.linalg.solve(gyro.H, G), f_ref=f_ref, p_value=p, poses=len(pose_rows),
                         deg_s_per_g=float(np.linalg.svd(G, compute_uv=False)[0] * STANDARD_GRAVITY / DEG))
-
-
-def still_for_the_gyro(session: SessionData, pose_rows: list[np.ndarray]) -> np.ndarray:
-    """Which poses' gyro samples scatter no more than STILL_K times the median pose's: a turn about the
-    vertical between two poses leaves the accelerometer still, so a detector that watches it (imu_tk's) takes both
-    poses and the turn for one, whose mean rate is the turn's, not the bias at that specific force."""
-    spread = np.array([np.linalg.norm(np.nanvar(session.raw["gyro"][r], axis=0)) for r in pose_rows])
-    return spread <= STILL_K * np.median(spread)
 
 
 def without_g_sensitivity(session: SessionData, accel: TriadCalibration, g: GSensitivity) -> SessionData:

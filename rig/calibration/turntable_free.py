@@ -1,7 +1,8 @@
 """Calibration without known rotations (hand-held multi-position data such as imu_tk's Xsens set).
 
 Follows imu_tk (Tedaldi et al., ICRA 2014), with our model `u = H (y - B)`:
-* Accelerometer: static intervals detected from the data for k = 2..10 (imu_tk's sweep); for
+* Accelerometer: static intervals detected from the data for k = 2..10 (imu_tk's sweep), each cut where the gyro
+  shows the unit turning (`gyro_still`: a turn about the vertical leaves the accelerometer still); for
   each k the first 100 samples of every interval longer than that are fitted to `|H (y - B)| = g` with H upper
   triangular (imu_tk's convention: the accelerometer frame *is* the body frame, no rotation is
   observable without known orientations); start from the algebraic ellipsoid (`fit_ellipsoid`),
@@ -22,6 +23,7 @@ import numpy as np
 from rig.calibration.ellipsoid import fit_ellipsoid
 from rig.calibration.levenberg import minimise
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats, scalar_search
+from rig.calibration.gyro_still import split_turning, turning_threshold
 from rig.calibration.result import TriadCalibration
 from rig.calibration.sampling import refuse_coarse_motions
 from rig.calibration.saturation import pinned_rows, rail_names
@@ -67,21 +69,23 @@ def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.
             row = int(np.flatnonzero(~np.isfinite(a).all(axis=1))[0])
             raise ValueError(f"turntable-free: {name} contains NaN/inf at row {row}")
     columns = columns or {}
-    accel = _accel_sweep(t, accel_raw, gravity, init_static_s, k_values, window_s, columns.get("accel"))
+    accel = _accel_sweep(t, accel_raw, gyro_raw, gravity, init_static_s, k_values, window_s, columns.get("accel"))
     intervals = [tuple(c) for c in accel.extra["intervals"]]
     g_body = accel.apply(np.array([accel_raw[a:b + 1].mean(axis=0) for a, b in intervals]))
     gyro = calibrate_gyro_gravity(t, gyro_raw, g_body, intervals, init_static_s, columns.get("gyro"))
     return {"accel": accel, "gyro": gyro}
 
 
-def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_static_s: float, k_values,
-                 window_s: float, columns: list[str] | None = None) -> TriadCalibration:
-    """imu_tk's threshold sweep: detect, fit, keep the k with the least cost."""
+def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, gravity: float, init_static_s: float,
+                 k_values, window_s: float, columns: list[str] | None = None) -> TriadCalibration:
+    """imu_tk's threshold sweep: detect (and cut where the gyro turns), fit, keep the k with the least cost."""
     best, sweep = None, []
+    turning = turning_threshold(t, gyro_raw, window_s=window_s, init_static_s=init_static_s)
     found, pinned = pinned_rows(accel_raw)
     saturated = 0
     for k in k_values:
         intervals = detect_static_intervals(t, accel_raw, window_s=window_s, init_static_s=init_static_s, k=k)
+        intervals = split_turning(t, gyro_raw, intervals, turning, window_s=window_s)
         intervals, spoiled = unpinned(intervals, pinned)
         chunks = first_samples(intervals, SAMPLES_PER_INTERVAL)
         saturated = max(saturated, len(long_intervals(spoiled, SAMPLES_PER_INTERVAL)))

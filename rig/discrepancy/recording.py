@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.g_sensitivity import pose_means, still_for_the_gyro
+from rig.calibration.g_sensitivity import pose_means
 from rig.calibration.recording import RecordingCalibration
 from rig.calibration.regression import nested_f, resvar
 from rig.discrepancy.candidates import POSE_REGRESSORS, RECORDING_TESTS
@@ -28,14 +28,10 @@ ALPHA = 0.01
 
 
 def pose_table(session: SessionData, rec: RecordingCalibration) -> dict[str, np.ndarray]:
-    """Per static pose: mid time, calibrated specific force (m/s^2), gyro mean (rad/s) and whether the gyro saw it
-    still (`still_for_the_gyro`: a turn about the vertical that the accelerometer's detector took for part of a
-    pose is not a bias at that specific force, and one such pose hid a g-sensitivity of 0.1 deg/s per g)."""
+    """Per static pose: mid time, calibrated specific force (m/s^2) and gyro mean (rad/s)."""
     rows = [p.rows for p in rec.poses]
     out = pose_means(session, rec.sensors, rows)
     out["face"] = np.array([p.up is not None for p in rec.poses])
-    if "w" in out:
-        out["gyro_still"] = still_for_the_gyro(session, rows)
     return out
 
 
@@ -44,7 +40,6 @@ def gyro_pose_tests(table: dict) -> list[Test]:
     with too few poses for every block, those of the highest rank are left out."""
     if "w" not in table:
         return []
-    table = {key: v[table["gyro_still"]] for key, v in table.items()}
     k = len(table["t"])
     ones = np.ones((k, 1))
     regressors = sorted(POSE_REGRESSORS.items(), key=lambda item: item[1].rank)

@@ -25,13 +25,16 @@ def rel_err(H: np.ndarray, H_true: np.ndarray) -> float:
 
 
 def handheld_record(rng: np.random.Generator, *, poses: int = 30, rate_hz: float = 100.0, gravity: float = 9.80665,
-                    accel_noise: float = 0.01, gyro_noise: float = 0.003):
+                    accel_noise: float = 0.01, gyro_noise: float = 0.003, vertical_turns: tuple[int, ...] = (),
+                    tilt_deg: float = 0.0):
     """A hand-held multi-position record with its truth (imu_tk-like, no known rotations).
 
     The body frame is the accelerometer frame, so the true accelerometer H is upper triangular
     (unit-diagonal misalignment times scale); the gyro H is a full matrix into that frame.
     Starts with 50 s at rest; each move turns about a random body axis by 40-120 deg with a
-    smooth (zero end-rate) profile, then rests 3-4 s.
+    smooth (zero end-rate) profile, then rests 3-4 s. The moves numbered in `vertical_turns` (0 the first) turn
+    about an axis `tilt_deg` from the vertical instead: gravity moves that little in the body, and the accelerometer
+    barely sees them.
     """
     Ha = np.triu(rng.normal(0, 0.01, (3, 3)), 1) + np.eye(3)
     Ha = Ha @ np.diag(1.0 / rng.uniform(400, 420, 3))
@@ -51,9 +54,10 @@ def handheld_record(rng: np.random.Generator, *, poses: int = 30, rate_hz: float
         ws.append(np.zeros((n, 3)))
 
     rest(50.0)
-    for _ in range(poses):
+    for move in range(poses):
         axis = rng.normal(0, 1, 3)
-        axis /= np.linalg.norm(axis)
+        tilted = [np.sin(np.radians(tilt_deg)), 0.0, np.cos(np.radians(tilt_deg))]
+        axis = R.T @ tilted if move in vertical_turns else axis / np.linalg.norm(axis)
         angle, T = np.radians(rng.uniform(40, 120)), rng.uniform(1.5, 3.0)
         tau = np.arange(0.0, T, dt) / T
         theta = angle * (tau - np.sin(2 * np.pi * tau) / (2 * np.pi))
