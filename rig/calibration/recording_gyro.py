@@ -16,7 +16,7 @@ from rig.calibration.recording_fits import (
 from rig.calibration.recording_vector import gravity_directions
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import Pose, Turn
-from rig.calibration.turntable_free import GAP_FACTOR
+from rig.calibration.turntable_free_gyro import GAP_FACTOR
 from rig.calibration.uncertainty import inherited_frame_cov
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream, SessionData

@@ -9,7 +9,8 @@ import numpy as np
 from rig.calibration.recording_fits import fit_faces
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import Pose
-from rig.calibration.turntable_free import SAMPLES_PER_INTERVAL, fit_accel_upper
+from rig.calibration.static_detect import SAMPLES_PER_INTERVAL
+from rig.calibration.turntable_free import fit_accel_upper
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
 

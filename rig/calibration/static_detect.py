@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+SAMPLES_PER_INTERVAL = 100  # imu_tk's interval_n_samples: what a static interval must hold to be used
+
 
 def window_samples(t: np.ndarray, window_s: float) -> int:
     """Odd window length for `window_s` at the median sample rate (101 for 1 s at 100 Hz, as imu_tk)."""
@@ -64,7 +66,7 @@ def detect_static_intervals(t: np.ndarray, accel: np.ndarray, *, window_s: float
     return [(int(a), int(b)) for a, b in zip(starts, ends)]
 
 
-def first_samples(intervals: list[tuple[int, int]], n_samples: int = 100) -> list[tuple[int, int]]:
+def first_samples(intervals: list[tuple[int, int]], n_samples: int = SAMPLES_PER_INTERVAL) -> list[tuple[int, int]]:
     """The first `n_samples` of each interval longer than that (imu_tk's extractIntervalsSamples).
 
     imu_tk keeps an interval when end - start >= n_samples and fits its first n_samples samples.
@@ -72,6 +74,6 @@ def first_samples(intervals: list[tuple[int, int]], n_samples: int = 100) -> lis
     return [(a, a + n_samples - 1) for a, b in intervals if b - a >= n_samples]
 
 
-def long_intervals(intervals: list[tuple[int, int]], n_samples: int = 100) -> list[tuple[int, int]]:
+def long_intervals(intervals: list[tuple[int, int]], n_samples: int = SAMPLES_PER_INTERVAL) -> list[tuple[int, int]]:
     """The intervals imu_tk keeps (end - start >= n_samples), whole: the gyro step uses their means."""
     return [(a, b) for a, b in intervals if b - a >= n_samples]
