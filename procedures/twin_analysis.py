@@ -15,6 +15,7 @@ from procedures.twin_extension import Cause, family, outside, propose
 from procedures.twin_model import added_rate, heldout_change, model_causes
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.calibration.threads import one_blas_thread
+from rig.errors import CalibrationError
 from rig.noise.statistics import recording_statistics
 from rig.session_data import SessionData
 
@@ -36,6 +37,8 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     alone (which statistics it brings back). The held-out refits run beside them."""
     t0 = time.perf_counter()
     rec = calibrate_recording(session)
+    for sensor, why in rec.refused.items():     # the twin replays the motions at the calibrated gyro's rate
+        raise CalibrationError(f"{why} (the twin needs the {sensor}: `rig calibrate --from` writes the others)")
     view = twin_view(session, rec)
     rec = calibrate_recording(view)
     real = recording_statistics(view, rec)

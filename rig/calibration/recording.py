@@ -27,7 +27,8 @@ from rig.calibration.recording_mag import calibrate_recording_mag
 from rig.calibration.recording_vector import vector_fit
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
-from rig.calibration.turntable_free import INITIAL_REST_S, calibrate_turntable_free
+from rig.calibration.turntable_free import INITIAL_REST_S, checked, turntable_free_accel
+from rig.calibration.turntable_free_gyro import turntable_free_gyro
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
 
@@ -43,6 +44,7 @@ class RecordingCalibration:
     turns: list[Turn]
     carries: list[tuple[int, int]]                 # (pose index, next pose index) whose motion carried gravity
     warnings: list[str] = field(default_factory=list)
+    refused: dict[str, str] = field(default_factory=dict)   # sensor -> why it could not be calibrated
 
 
 def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
@@ -122,25 +124,35 @@ def _mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns
 
 
 def _turntable_free(session: SessionData) -> RecordingCalibration:
-    """No segments: imu_tk's method, static intervals detected in the data (a record starting at rest)."""
+    """No segments: imu_tk's method, static intervals detected in the data (a record starting at rest). A gyro
+    that cannot be calibrated from them (poses not held still, motions too coarse or clipped) is `refused`; the
+    accelerometer (and magnetometer) still are."""
     if "accel" not in session.raw or "gyro" not in session.raw:
         raise CalibrationError(f"{session.source}: a recording without segments needs an accelerometer and a "
                                "gyroscope (imu_tk's turntable-free method)")
     accel, gyro = session.raw["accel"], session.raw["gyro"]
     rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
-    try:
-        sensors = calibrate_turntable_free(session.t[rows], accel[rows], gyro[rows], gravity=session.gravity,
-                                           columns={s: imported_columns(session, s) for s in ("accel", "gyro")},
-                                           init_static_s=float(session.meta.get("initial_rest_s") or INITIAL_REST_S))
-    except (CalibrationError, ValueError) as exc:       # name the recording, as every other refusal here does
+    t, accel, gyro = session.t[rows], accel[rows], gyro[rows]
+    rest = float(session.meta.get("initial_rest_s") or INITIAL_REST_S)
+    columns = {s: imported_columns(session, s) for s in ("accel", "gyro")}
+    sensors, refused = {}, {}
+    try:                                                # name the recording, as every other refusal here does
+        sensors["accel"] = turntable_free_accel(t, checked(t, accel, "accel"), gravity=session.gravity,
+                                                init_static_s=rest, columns=columns["accel"])
+        try:
+            sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
+                                                  init_static_s=rest, columns=columns["gyro"])
+        except CalibrationError as exc:
+            refused["gyro"] = f"{session.source}: {exc}"
+    except (CalibrationError, ValueError) as exc:
         raise CalibrationError(f"{session.source}: {exc}") from None
-    intervals = sensors["accel"].extra["intervals"]
+    intervals = (sensors.get("gyro") or sensors["accel"]).extra["intervals"]
     index = np.flatnonzero(rows)
     poses = [Pose(f"static {k}", index[a:b + 1], None, DEFAULT_TILT_SD_DEG) for k, (a, b) in enumerate(intervals)]
-    sensors, warnings = dict(sensors), ["no segments: static intervals detected in the data (imu_tk's turntable-free "
-                                        "method; the record must start with a long rest)"]
+    warnings = ["no segments: static intervals detected in the data (imu_tk's turntable-free method; the record must "
+                "start with a long rest)"]
     if "mag" in session.raw:
         sensors["mag"], mag_warnings = _mag(session, sensors["accel"], poses, [], None)
         warnings += mag_warnings
-    return RecordingCalibration(sensors, poses, [], [(i, i + 1) for i in sensors["gyro"].extra["whole_motions"]],
-                                warnings)
+    carries = [(i, i + 1) for i in sensors["gyro"].extra["whole_motions"]] if "gyro" in sensors else []
+    return RecordingCalibration(sensors, poses, [], carries, warnings, refused)

@@ -215,13 +215,15 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
                 _calibrate_rig_folder(Path(from_dir), out, method=method, settle_s=settle_s, gravity=gravity,
                                       gyro_samples=gyro_samples, move_samples=not holds_only)
                 return
-            calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
-                               settle_s=settle_s, gravity=gravity, gyro_samples=gyro_samples, echo=click.echo,
-                               move_samples=not holds_only)
+            result = calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
+                                        settle_s=settle_s, gravity=gravity, gyro_samples=gyro_samples,
+                                        echo=click.echo, move_samples=not holds_only)
         except (RigError, OSError) as e:
             raise command_error(e) from None
         except (ValueError, ArithmeticError) as e:     # numbers the data cannot support (numpy's LinAlgError too)
             raise CommandError(f"{from_dir or accel}: the data cannot be calibrated: {plain(str(e))}") from None
+        if result.refused:                              # written without them: a check did not pass
+            sys.exit(Exit.FAIL)
         return
     if not sim and not config_path:
         raise click.UsageError("give --sim (simulated rig), --config rig.toml (real rig) or --from SESSION_DIR")

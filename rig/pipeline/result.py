@@ -21,6 +21,7 @@ class SessionCalibration:
     excluded_steps: dict[int, str] = field(default_factory=dict)
     holds_used: dict[str, int] = field(default_factory=dict)
     raw_units: dict[str, str] = field(default_factory=dict)     # a recording's raw columns may be in SI units
+    refused: dict[str, str] = field(default_factory=dict)       # sensor -> why it could not be calibrated
 
 
 def summary_lines(result: SessionCalibration) -> list[str]:

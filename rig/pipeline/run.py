@@ -122,7 +122,7 @@ def calibrate_without_table(session: SessionData) -> SessionCalibration:
     for name, cal in rec.sensors.items():
         check_result(name, cal, reference_norm(session, name), warnings)
     result = SessionCalibration(dict(rec.sensors), warnings, holds_used={s: len(rec.poses) for s in rec.sensors},
-                                raw_units=dict(session.meta.get("units", {})))
+                                raw_units=dict(session.meta.get("units", {})), refused=dict(rec.refused))
     result.summary = summary_lines(result)
     return result
 
@@ -166,6 +166,8 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
         echo(line)
     for w in result.warnings:
         echo(f"warning: {w}")
+    for sensor, why in result.refused.items():
+        echo(f"{sensor}: not calibrated: {why}")
     echo(f"wrote {out_path}")
     return result
 

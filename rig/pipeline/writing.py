@@ -53,7 +53,8 @@ def write_session_calibration(out_dir: str | os.PathLike, result: SessionCalibra
     path = out_dir / CALIBRATION_FILE
     keys = {**(extra or {}), "table_time_s": None if session is None else table_time_s(session),
             "warnings": result.warnings,
-            "excluded_steps": {str(k): v for k, v in sorted(result.excluded_steps.items())}}
+            "excluded_steps": {str(k): v for k, v in sorted(result.excluded_steps.items())},
+            **({"not_calibrated": dict(result.refused)} if result.refused else {})}
     write_calibration(path, result.sensors, gravity=gravity, field_uT=field_uT, unit_serial=unit_serial,
                       board=board, extra=keys)
     return path
