@@ -7,13 +7,15 @@
   show (the importer's; imucal's default -360 deg fits the SI file, the pre-cut one turns the other way).
 * imu_tk: its published parameters for the Xsens recording (shared/reference/anchors-calibration.md 4.2, its
   `test_imu_calib` run), g = 9.81744.
+* tomisuarez2/ImuCalibration (a Python port of imu_tk): its published parameters for its own MPU-6050 session
+  (tests/data/mpu6050-tomisuarez2, PROVENANCE.md), read from its files; g = 9.80665, as it was run.
 Ours is `calibrate_recording` on the imported session as `rig calibrate` runs it (the gyro's g-sensitivity taken
 into its calibration where the poses show it, `rig.calibration.g_sensitivity`). Held-out scores (rig.calibration.heldout): leave one
 pose / turn / motion out and refit. A peer whose closed form cannot refit without a piece (imucal needs all six
 faces and all three turns; imu_tk's parameters are published, fitted on every pose and motion) is scored
 in-sample there, which favours the peer; pieces no fit saw (imucal never uses the motions between faces or the
 rests outside its sections) are held out for both.
-Usage: python benchmarks/bench_recordings.py [--data DIR] [--only si,raw,xsens]
+Usage: python benchmarks/bench_recordings.py [--data DIR] [--only si,raw,xsens,mpu]
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from rig.calibration.recording_fits import gyro_rotation_fit  # noqa: E402
 from rig.calibration.recording_gyro import motion  # noqa: E402
 from rig.calibration.recording_vector import gravity_directions  # noqa: E402
 from rig.calibration.static_detect import initial_interval  # noqa: E402
+from rig.io.import_csv import import_csv  # noqa: E402
 from rig.io.import_ferraris import import_ferraris  # noqa: E402
 from rig.io.import_imu_tk import import_imu_tk  # noqa: E402
 
@@ -123,12 +126,24 @@ def published_series(params: dict, session) -> dict[str, np.ndarray]:
     return {s: (session.raw[s] - np.array(p["B"])) @ np.array(p["H"]).T for s, p in params.items()}
 
 
+def tomisuarez2_published(folder: Path) -> dict:
+    """Its accelerometer `a = T K (y + b)` and gyro `w = T K (y - bias)` (PROVENANCE.md) as u = H (y - B)."""
+    acc = np.loadtxt(folder / "params_acc.csv")
+    gyr = np.loadtxt(folder / "params_gyro.csv")
+    yz, zy, zx = acc[:3]
+    Ta = np.array([[1.0, -yz, zy], [0.0, 1.0, -zx], [0.0, 0.0, 1.0]])
+    yz, zy, xz, zx, xy, yx = gyr[:6]
+    Tg = np.array([[1.0, -yz, zy], [xz, 1.0, -zx], [-xy, yx, 1.0]])
+    return {"accel": {"B": (-acc[6:9]).tolist(), "H": (Ta @ np.diag(acc[3:6])).tolist()},
+            "gyro": {"B": gyr[9:12].tolist(), "H": (Tg @ np.diag(gyr[6:9])).tolist()}}
+
+
 def imu_tk_method_carries(laid, full) -> list[float]:
     """imu_tk's gyro method held out, motion by motion: B the mean of the initial 50 s rest, H carrying the gravity
     direction of each pose (unweighted unit-vector residuals, MultiPosGyroResidual) across every other motion
     (rig's re-implementation; on all motions it gives imu_tk's published H to 0.2 % on the diagonal). imu_tk's
     accelerometer method is ours on this recording (upper-triangular H, the first 100 samples of each pose)."""
-    B0 = laid.raw["gyro"][:initial_interval(laid.t, 50.0)].mean(axis=0)
+    B0 = laid.raw["gyro"][:initial_interval(laid.t, float(laid.meta.get("initial_rest_s") or 50.0))].mean(axis=0)
     g = gravity_directions(laid, full.sensors["accel"], full.poses)
     streams = [motion(laid, full.poses[i], full.poses[j]) for i, j in full.carries]
     out = []
@@ -145,7 +160,7 @@ def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer
     """peer_heldout: the scores whose pieces the peer's fit never saw; peer_method_heldout(laid, full) -> {score:
     [errors]}: the peer's method refitted without each piece, where it can be."""
     t0 = time.perf_counter()
-    OURS(session)
+    refused = OURS(session).refused
     ours_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     held, inside = heldout_scores(session, OURS)
@@ -159,6 +174,10 @@ def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer
         if o is None and p is None:
             continue
         peer_held = key in peer_heldout
+        if key.startswith("gyro") and "gyro" in refused:      # `rig calibrate` writes no gyro: nothing to score
+            rows.append({"quantity": what, "ours_heldout": None, "ours_in_sample": None, "ours_refused": refused["gyro"],
+                         "peer": p, "peer_is": "in-sample (its fit saw this piece)", "ours_no_worse": None})
+            continue
         rows.append({"quantity": what, "ours_heldout": o, "ours_in_sample": ours_in[key]["rms"],
                      "ours_n": f"{ours_h[key]['n']}/{ours_h[key]['of']}", "peer": p,
                      "peer_is": "held out" if peer_held else "in-sample (its fit saw this piece)",
@@ -168,7 +187,8 @@ def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer
         for key, errors in peer_method_heldout(laid, full).items():
             row = next(r for r in rows if r["quantity"].startswith(QUANTITY[key]))
             row["peer_method_heldout"] = float(np.sqrt(np.mean(np.square(errors))))
-            row["ours_no_worse_than_peer_method_heldout"] = bool(row["ours_heldout"] <= row["peer_method_heldout"])
+            if row["ours_heldout"] is not None:
+                row["ours_no_worse_than_peer_method_heldout"] = bool(row["ours_heldout"] <= row["peer_method_heldout"])
         peer_time_s = peer_time_s, round(time.perf_counter() - t0, 2)
     return {"recording": name, "rows_of_data": int(len(session.t)), "peer": peer, "comparison": rows,
             "ours_heldout": ours_h, "ours_in_sample": ours_in, "peer_scores": theirs, "notes": held.notes,
@@ -180,7 +200,7 @@ def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=Path(os.environ.get("RIG_SHARED", ROOT.parent / "shared")) / "data")
-    parser.add_argument("--only", default="si,raw,xsens")
+    parser.add_argument("--only", default="si,raw,xsens,mpu")
     args = parser.parse_args()
     ferraris, xsens = args.data / "imucal-ferraris", args.data / "imu_tk-xsens"
     only, results = set(args.only.split(",")), []
@@ -201,6 +221,15 @@ def main() -> None:
         s = import_imu_tk({"accel": xsens / "xsens_acc.mat", "gyro": xsens / "xsens_gyro.mat"}, gravity=XSENS_GRAVITY)
         results.append(compare("imu_tk-xsens (counts, 100 Hz)", s, "imu_tk (published parameters)",
                                lambda laid: published_series(IMU_TK_PUBLISHED, laid), IMU_TK_RUN_S, set(),
+                               lambda laid, full: {"gyro_carry_deg": imu_tk_method_carries(laid, full)}))
+    if "mpu" in only:
+        mpu = ROOT / "tests" / "data" / "mpu6050-tomisuarez2"
+        s = import_csv(mpu / "example_data_calibration.csv", {"accel": ["ax", "ay", "az"], "gyro": ["gx", "gy", "gz"]},
+                       units={"accel": "counts", "gyro": "counts"}, rate_hz=100.0, header_line=5, initial_rest_s=36.5)
+        published = tomisuarez2_published(mpu)
+        results.append(compare("tomisuarez2 MPU-6050 example_data_calibration.csv (counts, 100 Hz)", s,
+                               "tomisuarez2/ImuCalibration (published parameters)",
+                               lambda laid: published_series(published, laid), float("nan"), set(),
                                lambda laid, full: {"gyro_carry_deg": imu_tk_method_carries(laid, full)}))
     print(json.dumps({"benchmark": "bench_recordings", "load": round(os.getloadavg()[0], 2), "recordings": results},
                      indent=1))

@@ -1,0 +1,51 @@
+"""A real recording the pipeline had never seen: tomisuarez2/ImuCalibration's MPU-6050 hand session
+(`tests/data/mpu6050-tomisuarez2`, PROVENANCE.md), run as a user would, beside the parameters its authors
+published for it. Four things of it were each refused before any fit (a preamble above the header, a 36.5 s
+initial rest, ten poses, a gyro rail reached by two samples); its gyro cannot be calibrated from it (poses the gyro
+sees turning, motions clipped), which imu_tk's own method held out confirms (README, "Beside the peers")."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_unseen_recordings import gyro_not_calibrated, one_clear_line, rig  # noqa: E402
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "mpu6050-tomisuarez2"
+
+
+def published_accel() -> tuple[np.ndarray, np.ndarray]:
+    """Its `a = T K (y + b)` (PROVENANCE.md) as B and H of `u = H (y - B)`."""
+    p = np.loadtxt(DATA / "params_acc.csv")
+    T = np.array([[1.0, -p[0], p[1]], [0.0, 1.0, -p[2]], [0.0, 0.0, 1.0]])
+    return -p[6:9], T @ np.diag(p[3:6])
+
+
+def norm_rms(y: np.ndarray, B: np.ndarray, H: np.ndarray, g: float) -> float:
+    return float(np.sqrt(np.mean((np.linalg.norm((y - B) @ H.T, axis=1) - g) ** 2)))
+
+
+def test_the_mpu6050_session_imports_calibrates_its_accelerometer_and_names_why_not_its_gyro(tmp_path):
+    done = rig("import", "csv", str(DATA / "example_data_calibration.csv"), "--header-line", "5", "--rate-hz", "100",
+               "--accel", "ax,ay,az", "--gyro", "gx,gy,gz", "--initial-rest-s", "36.5", "--out", str(tmp_path / "s"))
+    assert done.returncode == 0, done.stderr
+    done = rig("calibrate", "--from", str(tmp_path / "s"), "--out", str(tmp_path / "cal"), "--no-progress")
+    why = gyro_not_calibrated(done, tmp_path / "cal")
+    assert "stay still for the gyro" in why and "pinned at 32767" in why, why
+    cal = json.loads((tmp_path / "cal" / "calibration.json").read_text())
+    accel = cal["sensors"]["accel"]
+    assert len(accel["fit_samples"]) == 10
+
+    y = np.loadtxt(DATA / "example_data_calibration.csv", delimiter=",", skiprows=5)[:, :3]
+    poses = [np.arange(a, b + 1) for a, b in accel["intervals"]]
+    rows = np.concatenate(poses)
+    ours = norm_rms(y[rows], np.array(accel["B"]), np.array(accel["H"]), cal["gravity_mps2"])
+    theirs = norm_rms(y[rows], *published_accel(), cal["gravity_mps2"])
+    assert ours <= theirs, (ours, theirs)          # on the poses it fitted: its own least squares
+
+    done = rig("discrepancy", str(tmp_path / "s"), "--json", str(tmp_path / "d.json"), "--replicas", "10")
+    assert done.returncode == 3 and "the twin needs the gyro" in one_clear_line(done), done.stderr
