@@ -77,18 +77,27 @@ def calibrate_with_moves(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.
     return fit
 
 
+def offset_information(label: np.ndarray, omega: np.ndarray, x: np.ndarray, K: np.ndarray,
+                       sigma: np.ndarray) -> np.ndarray:
+    """Fisher information (1/s^2) of each label's sample-time offset delta in `u + delta w x u`: the rows'
+    `K (w x x) / sigma` squared and summed. Zero where the table stands still: there delta changes nothing."""
+    if len(label) == 0:
+        return np.zeros(0)
+    return np.bincount(label, weights=np.sum((np.cross(omega, x) @ K.T / sigma) ** 2, axis=1),
+                       minlength=int(label.max()) + 1)
+
+
 def observable_labels(label: np.ndarray, omega: np.ndarray, x: np.ndarray, K: np.ndarray,
                       sigma: np.ndarray) -> np.ndarray:
     """The offset labels with every stretch that cannot fix its own offset (a few rows, or rows where the table
     hardly turns: a stall at the end of a move starts a stretch of still rows) joined to the stretch before it
     (the first to the next): its offset moves the fit by nothing, and left free it wandered to 1e11 ms and had
     every move sample refused (fault campaign). A stretch keeps its own offset where it determines it to
-    OFFSET_STD_S or better (the Fisher information of delta in `u + delta w x u`)."""
+    OFFSET_STD_S or better (the Fisher information of delta in `u + delta w x u`). Where none does, all share one
+    (which `_fit` refuses when even all the rows together do not fix it)."""
     if len(label) == 0:
         return label
-    info = np.bincount(label, weights=np.sum((np.cross(omega, x) @ K.T / sigma) ** 2, axis=1),
-                       minlength=int(label.max()) + 1)
-    own = info * OFFSET_STD_S ** 2 >= 1.0
+    own = offset_information(label, omega, x, K, sigma) * OFFSET_STD_S ** 2 >= 1.0
     if not own.any():
         return np.zeros_like(label)
     keep = np.flatnonzero(own)
@@ -107,9 +116,18 @@ def _fit(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.ndarray, sigma_h
     C = np.zeros((len(Y), 3))
     C[n:] = moves.extra
     S = np.vstack([np.broadcast_to(sigma_holds, (n, 3)), np.broadcast_to(moves.sigma, (len(moves), 3))])
-    label = observable_labels(moves.labels(), moves.omega, np.einsum("kji,j->ki", moves.R, v0),
-                              np.linalg.inv(hold_fit.H), moves.sigma)
+    x0, K0 = np.einsum("kji,j->ki", moves.R, v0), np.linalg.inv(hold_fit.H)
+    label = observable_labels(moves.labels(), moves.omega, x0, K0, moves.sigma)
     groups = int(label.max()) + 1 if len(label) else 0
+    info = offset_information(label, moves.omega, x0, K0, moves.sigma)
+    if groups and info.min() * OFFSET_STD_S ** 2 < 1.0:
+        # Rows where the table stands still (in a mixed rig whose chips see the table late, the only rows whose
+        # reference agrees with the gyro) leave the offset free: the fit ran it to 1e13 ms and printed that.
+        rate = float(np.degrees(np.max(np.linalg.norm(moves.omega, axis=1))))
+        std = 1.0 / np.sqrt(info.min()) if info.min() > 0 else np.inf
+        fixed = f"only to {1000 * std:.3g} ms" if std <= 1.0 else "not even to 1 s"
+        raise CalibrationError(f"move samples: their {len(moves)} rows turn too little (at most {rate:.2g} deg/s) "
+                               f"to fix the sample-time offset: {fixed}, {1000 * OFFSET_STD_S:g} ms needed")
     n_params = N_FIXED + groups
     E = tangent_basis(v0) * norm
 
@@ -150,7 +168,8 @@ def _fit(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.ndarray, sigma_h
         raise CalibrationError(f"move samples: the fit did not converge ({sol.message})")
     if groups and np.max(np.abs(offsets)) > MAX_OFFSET_S:
         worst = float(offsets[np.argmax(np.abs(offsets))])
-        raise CalibrationError(f"move samples: a move fits only {1000 * worst:.1f} ms away from its time stamps "
+        away = f"{1000 * worst:.1f} ms" if abs(worst) <= 1.0 else "more than 1 s"      # beyond that: no timing
+        raise CalibrationError(f"move samples: a move fits only {away} away from its time stamps "
                                "(beyond any sample clock's offset): the moves' reference does not describe them")
     dof = 3 * len(Y) - n_params
     chi2 = float(2 * sol.cost / dof)

@@ -107,3 +107,42 @@ def refuse_coarse_motions(source: str | None, what: str, moves: list[MoveStream]
     if found.too_coarse:
         raise CalibrationError(f"{source + ': ' if source else ''}gyro: {found.refusal(what, rate_hz)}")
     return found
+
+
+HOLE_PERIODS = 1.5   # an interval longer than this many sample periods has lost samples ...
+HOLE_TURN_DEG = 0.1  # ... which matter where the gyro turned this much across it
+JITTER_SHARE = 0.1   # stamps scattered (RMS) by more than this share of the period do not mark the sample instants
+
+
+@dataclass
+class MoveTiming:
+    """How regularly a gyro's move samples were taken, from their time stamps and rates."""
+
+    period_s: float         # the median interval
+    missing: int            # samples missing inside the motions where the gyro turned across the hole
+    holes: int
+    longest_hole_s: float
+    worst_hole_deg: float   # the most the gyro turned across one hole
+    jitter_s: float         # RMS scatter of the other intervals about the period
+
+    @property
+    def irregular(self) -> bool:
+        return self.missing > 0 or self.jitter_s > JITTER_SHARE * self.period_s
+
+
+def move_timing(moves: list[MoveStream], B: np.ndarray, H: np.ndarray) -> MoveTiming:
+    """Lost samples and scattered stamps in the motions. A chip that holds only its newest sample loses every
+    sample its reader comes too late for, and a row stamped when the read began is off the chip's own sample
+    instant by however late the read was: on a real clock, a loop that falls behind (a loaded host, a slow bus or
+    table link). Either puts a move's integrated angle off by the rate's change times the time error (in the
+    mixed rig at load 5 on 2 cores: 1-7 samples lost a move, stamps 17 ms before to 7 ms after the chip's sample
+    instants, moves off by up to 0.5 %), which no sample model of the integration can take back."""
+    dt = np.concatenate([np.diff(m.t) for m in moves])
+    turned = np.degrees(np.concatenate(rotation_steps(moves, B, H)))
+    period = float(np.median(dt))
+    hole = dt > HOLE_PERIODS * period
+    lost = hole & (turned > HOLE_TURN_DEG)
+    regular = dt[~hole]
+    return MoveTiming(period, int(np.sum(np.round(dt[lost] / period) - 1)), int(lost.sum()),
+                      float(dt[lost].max()) if lost.any() else 0.0, float(turned[lost].max()) if lost.any() else 0.0,
+                      float(np.sqrt(np.mean((regular - period) ** 2))) if regular.size else 0.0)

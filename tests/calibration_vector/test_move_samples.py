@@ -195,3 +195,23 @@ def test_a_stretch_too_still_to_fix_its_offset_shares_its_neighbours():
     low, high = fit.extra["time_offset_range_s"]
     assert abs(low - OFFSET_S) < 5e-4 and abs(high - OFFSET_S) < 5e-4, (low, high)
     assert h_error(fit.H, H) < h_error(hold_fit.H, H) * 1.5
+
+
+def test_move_rows_that_never_turn_are_refused_without_an_absurd_offset():
+    """Only still rows (a mixed rig's chips see the table 0.2 s late, so only rows at rest have a reference that
+    agrees with the gyro): the offset is free; the fit ran it to -1.6e12 ms and printed that as the reason."""
+    import re
+
+    from rig.errors import CalibrationError
+
+    rng = np.random.default_rng(6)
+    y_means, y_std, R, v, H, B, moves = synthetic(rng)
+    Rs = np.repeat(R, 20, axis=0)                               # 20 rows at rest at every hold's orientation
+    y = np.einsum("kji,j->ki", Rs, v) @ np.linalg.inv(H).T + B + rng.normal(0, SIGMA, (len(Rs), 3))
+    omega = rng.normal(0, 1e-14, (len(Rs), 3))                  # the reference's rate there: rounding only
+    still = MoveSamples(y, Rs, omega, np.zeros_like(y), np.full(3, SIGMA), np.repeat(np.arange(len(R)), 20))
+    hold_fit = calibrate_joint(y_means, R, NORM, y_std=y_std, counts=np.full(len(R), HOLD_SAMPLES))
+    with pytest.raises(CalibrationError, match="turn too little") as refused:
+        calibrate_with_moves(hold_fit, y_means, R, np.full((len(R), 3), SIGMA / np.sqrt(HOLD_SAMPLES)), NORM, still)
+    figures = [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?", str(refused.value))]
+    assert all(abs(x) <= 1000 for x in figures), str(refused.value)
