@@ -38,9 +38,9 @@ def turntable_free_gyro(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarr
     intervals = long_intervals(split_turning(t, gyro_raw, found, turning, window_s=window_s), SAMPLES_PER_INTERVAL)
     if len(intervals) < 2:
         raise CalibrationError(f"turntable-free gyro: of the accelerometer's {len(found)} static intervals, "
-                               f"{len(intervals)} stay still for the gyro for {SAMPLES_PER_INTERVAL} samples (elsewhere "
-                               f"it turns more than {GYRO_K:g} times the initial rest's rate): the poses were not held "
-                               "still, and the motions between them cannot be told from the poses")
+                               f"{len(intervals)} stay still for the gyro for {SAMPLES_PER_INTERVAL} samples "
+                               f"(elsewhere it turns more than {GYRO_K:g} times the initial rest's rate): the poses were "
+                               "not held still, and the motions between them cannot be told from the poses")
     g_body = accel.apply(np.array([accel_raw[a:b + 1].mean(axis=0) for a, b in intervals]))
     try:
         gyro = calibrate_gyro_gravity(t, gyro_raw, g_body, intervals, init_static_s, columns)

@@ -130,8 +130,8 @@ def warn_irregular_sampling(moves: list[MoveStream], cal: TriadCalibration, warn
         said.append(f"time stamps scattered by {1e3 * timing.jitter_s:.2g} ms RMS about the "
                     f"{1e3 * timing.period_s:.3g} ms sample period")
     warnings.append(f"gyro: the moves were sampled irregularly: {'; '.join(said)}. The integrated moves are off by "
-                    "the rate's change times the time error, and H with them (0.1-0.3 % in the mixed rig at 400 deg/s): the "
-                    "sampling loop fell behind the chip (a loaded host, a slow bus or table link)")
+                    "the rate's change times the time error, and H with them (0.1-0.3 % in the mixed rig at 400 "
+                    "deg/s): the sampling loop fell behind the chip (a loaded host, a slow bus or table link)")
 
 
 def check_move_axes(moves: list[MoveStream]) -> None:
