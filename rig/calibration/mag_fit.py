@@ -1,11 +1,17 @@
 """The fit behind a recording's magnetometer: a sphere through every sample, turned onto the accelerometer's frame.
 
 Without a reference attitude, the field's magnitude is the same at every sample (`|H (y - B)| = M`) and its angle
-to gravity is the same in every still pose (`g_k . H (m_k - B) = M sin(dip)`). The first fixes B and the symmetric
-part of H from all the samples a recording's motions sweep over the sphere (its six faces alone cannot: nine
-entries and three offsets from six points); the second fixes the rotation, so the magnetometer's output is in the
-frame the accelerometer and gyroscope share (conventions.md). Both are fitted together by least squares, each
-group weighted by its own residual scatter, which the covariance then states.
+to gravity is the same in every still pose (`g_k . v_k / |v_k| = sin(dip)`, `v_k = H (m_k - B)`). The first fixes
+B and the symmetric part of H from all the samples a recording's motions sweep over the sphere (its six faces alone
+cannot: nine entries and three offsets from six points); the second fixes the rotation, so the magnetometer's
+output is in the frame the accelerometer and gyroscope share (conventions.md). Both are fitted together by least
+squares, each group weighted by its own residual scatter, which the covariance then states.
+
+The angle is a cosine, of the field's direction alone, not the dot product `g_k . v_k`: a pose's mean is made of
+samples the magnitude's group already holds, and a dot product with gravity (30 deg from the field at a 60 deg
+dip) reads mostly their radial noise again, counted twice as if independent. The cosine's noise is the tangential
+part, which the magnitudes do not see (first order: d(g.v/|v|) = (g - (g.e) e) . dv / |v|, e = v/|v|). With the
+dot product, 30 noise draws of one synthetic hand session scattered 1.3 to 1.45 times the stated deviation.
 """
 
 from __future__ import annotations
@@ -95,7 +101,7 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
 def _residuals(p, y, groups):
     B, H = p[:3], p[3:12].reshape(3, 3)
     parts = [np.linalg.norm((y - B) @ H.T, axis=1) - 1.0]
-    parts += [((gy - B) @ H.T * d).sum(axis=1) - c for (gy, d), c in zip(groups, p[12:])]
+    parts += [(_unit((gy - B) @ H.T) * d).sum(axis=1) - c for (gy, d), c in zip(groups, p[12:])]
     return np.concatenate(parts)
 
 
@@ -108,8 +114,15 @@ def _jacobian(p, y, groups):
     for k, (gy, u) in enumerate(groups):
         c = np.zeros((len(gy), extra))
         c[:, k] = -1.0
-        rows.append(np.hstack([-u @ H, np.einsum("ki,kj->kij", u, gy - B).reshape(len(gy), 9), c]))
+        v = (gy - B) @ H.T
+        e = _unit(v)
+        q = (u - (u * e).sum(axis=1, keepdims=True) * e) / np.linalg.norm(v, axis=1, keepdims=True)
+        rows.append(np.hstack([-q @ H, np.einsum("ki,kj->kij", q, gy - B).reshape(len(gy), 9), c]))
     return np.vstack(rows)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
 def _centred(v: np.ndarray) -> np.ndarray:
