@@ -21,6 +21,7 @@ import itertools
 import numpy as np
 
 from rig.calibration.ellipsoid import fit_ellipsoid, sphere_map
+from rig.calibration.fit_noise import group_sigmas
 from rig.calibration.levenberg import minimise
 from rig.rotations import axis_angle_matrix
 
@@ -68,9 +69,9 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
               H: np.ndarray, turn_sd: list[float] = ()) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """B, H, their covariance (12, 12: B then row-major H) and details, from samples y (n, 3) and the groups of
     `best_rotation` (the first the still poses, then the turns with their axes' standard deviations `turn_sd`,
-    rad), starting at B, H. Each is weighted by its own residuals' RMS; a turn's at least what its axis's
-    uncertainty makes of its samples, which all share that one axis (400 samples trusted as independent
-    pulled H 1 % out of shape)."""
+    rad), starting at B, H. Each is weighted by its own noise (`fit_noise.group_sigmas`); a turn's at least what
+    its axis's uncertainty makes of its samples, which all share that one axis (400 samples trusted as
+    independent pulled H 1 % out of shape)."""
     n = [len(y)] + [len(g[0]) for g in groups]
     kinds = np.repeat(np.arange(len(n)), n)
     floors = np.full(len(n), SIGMA_FLOOR)
@@ -87,14 +88,15 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
                        p0, tol=1e-13, max_nfev=200)
         B, H = res.x[:3], res.x[3:12].reshape(3, 3) * norm
         r = res.fun / w
-        sigma = np.array([float(np.sqrt(np.mean(r[kinds == k] ** 2))) for k in range(len(n))])
+        sigma = group_sigmas(r, _jacobian(res.x, y, groups) * w[:, None], kinds)
     sigma = np.maximum(sigma, floors)
     w = 1.0 / sigma[kinds]
     J = _jacobian(res.x, y, groups) * w[:, None]
     scale = np.r_[np.ones(3), np.full(9, norm)]
     cov = np.linalg.pinv(J.T @ J)[:12, :12] * scale[:, None] * scale[None]
-    return B, H, cov, {"norm_rms": float(sigma[0]) * norm, "dip_deg": float(np.degrees(np.arcsin(
-        np.clip(-res.x[12], -1, 1)))), "dot_rms": float(sigma[1]), "iterations": int(res.nfev),
+    rms = [float(np.sqrt(np.mean(r[kinds == k] ** 2))) for k in (0, 1)]
+    return B, H, cov, {"norm_rms": rms[0] * norm, "dip_deg": float(np.degrees(np.arcsin(
+        np.clip(-res.x[12], -1, 1)))), "dot_rms": rms[1], "iterations": int(res.nfev),
         "converged": bool(res.success)}
 
 
