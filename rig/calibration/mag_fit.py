@@ -21,7 +21,7 @@ import itertools
 import numpy as np
 
 from rig.calibration.ellipsoid import fit_ellipsoid, sphere_map
-from rig.calibration.fit_noise import group_sigmas
+from rig.calibration.fit_noise import group_sigmas, sphere_noise_bias
 from rig.calibration.levenberg import minimise
 from rig.rotations import axis_angle_matrix
 
@@ -88,16 +88,19 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
                        p0, tol=1e-13, max_nfev=200)
         B, H = res.x[:3], res.x[3:12].reshape(3, 3) * norm
         r = res.fun / w
-        sigma = group_sigmas(r, _jacobian(res.x, y, groups) * w[:, None], kinds)
-    sigma = np.maximum(sigma, floors)
+        noise = sigma = group_sigmas(r, _jacobian(res.x, y, groups) * w[:, None], kinds)
+    sigma = np.maximum(noise, floors)
     w = 1.0 / sigma[kinds]
-    J = _jacobian(res.x, y, groups) * w[:, None]
+    J0 = _jacobian(res.x, y, groups)
+    J = J0 * w[:, None]
+    inv = np.linalg.pinv(J.T @ J)
+    x = res.x + inv[:, :12] @ sphere_noise_bias(J0[kinds == 0, :12], float(noise[0])) * w[0] ** 2
+    B, H = x[:3], x[3:12].reshape(3, 3) * norm
     scale = np.r_[np.ones(3), np.full(9, norm)]
-    cov = np.linalg.pinv(J.T @ J)[:12, :12] * scale[:, None] * scale[None]
+    cov = inv[:12, :12] * scale[:, None] * scale[None]
     rms = [float(np.sqrt(np.mean(r[kinds == k] ** 2))) for k in (0, 1)]
-    return B, H, cov, {"norm_rms": rms[0] * norm, "dip_deg": float(np.degrees(np.arcsin(
-        np.clip(-res.x[12], -1, 1)))), "dot_rms": rms[1], "iterations": int(res.nfev),
-        "converged": bool(res.success)}
+    return B, H, cov, {"norm_rms": rms[0] * norm, "dip_deg": float(np.degrees(np.arcsin(np.clip(-x[12], -1, 1)))),
+                       "dot_rms": rms[1], "iterations": int(res.nfev), "converged": bool(res.success)}
 
 
 def _residuals(p, y, groups):
