@@ -5,13 +5,8 @@ to gravity is the same in every still pose (`g_k . v_k / |v_k| = sin(dip)`, `v_k
 B and the symmetric part of H from all the samples a recording's motions sweep over the sphere (its six faces alone
 cannot: nine entries and three offsets from six points); the second fixes the rotation, so the magnetometer's
 output is in the frame the accelerometer and gyroscope share (conventions.md). Both are fitted together by least
-squares, each group weighted by its own residual scatter, which the covariance then states.
-
-The angle is a cosine, of the field's direction alone, not the dot product `g_k . v_k`: a pose's mean is made of
-samples the magnitude's group already holds, and a dot product with gravity (30 deg from the field at a 60 deg
-dip) reads mostly their radial noise again, counted twice as if independent. The cosine's noise is the tangential
-part, which the magnitudes do not see (first order: d(g.v/|v|) = (g - (g.e) e) . dv / |v|, e = v/|v|). With the
-dot product, 30 noise draws of one synthetic hand session scattered 1.3 to 1.45 times the stated deviation.
+squares, each group weighted by its own residual scatter, which the covariance then states. The
+residuals and their Jacobian: `mag_model`; the groups' noise and the magnitudes' bias: `fit_noise`.
 """
 
 from __future__ import annotations
@@ -23,6 +18,7 @@ import numpy as np
 from rig.calibration.ellipsoid import fit_ellipsoid, sphere_map
 from rig.calibration.fit_noise import group_sigmas, sphere_noise_bias
 from rig.calibration.levenberg import minimise
+from rig.calibration.mag_model import jacobian, residuals
 from rig.rotations import axis_angle_matrix
 
 SIGMA_FLOOR = 1e-4                 # of the field: the least a residual is trusted to (model error)
@@ -84,14 +80,14 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
         w = 1.0 / np.maximum(sigma, floors)[kinds]
         p0 = np.concatenate([B, H.ravel() / norm, [float(np.mean(((gy - B) @ H.T * d).sum(axis=1))) / norm
                                                    for gy, d in groups]])
-        res = minimise(lambda p: _residuals(p, y, groups) * w, lambda p: _jacobian(p, y, groups) * w[:, None],
+        res = minimise(lambda p: residuals(p, y, groups) * w, lambda p: jacobian(p, y, groups) * w[:, None],
                        p0, tol=1e-13, max_nfev=200)
         B, H = res.x[:3], res.x[3:12].reshape(3, 3) * norm
         r = res.fun / w
-        noise = sigma = group_sigmas(r, _jacobian(res.x, y, groups) * w[:, None], kinds)
+        noise = sigma = group_sigmas(r, jacobian(res.x, y, groups) * w[:, None], kinds)
     sigma = np.maximum(noise, floors)
     w = 1.0 / sigma[kinds]
-    J0 = _jacobian(res.x, y, groups)
+    J0 = jacobian(res.x, y, groups)
     J = J0 * w[:, None]
     inv = np.linalg.pinv(J.T @ J)
     x = res.x + inv[:, :12] @ sphere_noise_bias(J0[kinds == 0, :12], float(noise[0])) * w[0] ** 2
@@ -101,33 +97,6 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
     rms = [float(np.sqrt(np.mean(r[kinds == k] ** 2))) for k in (0, 1)]
     return B, H, cov, {"norm_rms": rms[0] * norm, "dip_deg": float(np.degrees(np.arcsin(np.clip(-x[12], -1, 1)))),
                        "dot_rms": rms[1], "iterations": int(res.nfev), "converged": bool(res.success)}
-
-
-def _residuals(p, y, groups):
-    B, H = p[:3], p[3:12].reshape(3, 3)
-    parts = [np.linalg.norm((y - B) @ H.T, axis=1) - 1.0]
-    parts += [(_unit((gy - B) @ H.T) * d).sum(axis=1) - c for (gy, d), c in zip(groups, p[12:])]
-    return np.concatenate(parts)
-
-
-def _jacobian(p, y, groups):
-    B, H = p[:3], p[3:12].reshape(3, 3)
-    extra = len(groups)
-    d = y - B
-    e = (d @ H.T) / np.linalg.norm(d @ H.T, axis=1, keepdims=True)
-    rows = [np.hstack([-e @ H, np.einsum("ni,nj->nij", e, d).reshape(len(y), 9), np.zeros((len(y), extra))])]
-    for k, (gy, u) in enumerate(groups):
-        c = np.zeros((len(gy), extra))
-        c[:, k] = -1.0
-        v = (gy - B) @ H.T
-        e = _unit(v)
-        q = (u - (u * e).sum(axis=1, keepdims=True) * e) / np.linalg.norm(v, axis=1, keepdims=True)
-        rows.append(np.hstack([-q @ H, np.einsum("ki,kj->kij", q, gy - B).reshape(len(gy), 9), c]))
-    return np.vstack(rows)
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
 def _centred(v: np.ndarray) -> np.ndarray:
