@@ -1,11 +1,12 @@
 """The fit behind a recording's magnetometer: a sphere through every sample, turned onto the accelerometer's frame.
 
 Without a reference attitude, the field's magnitude is the same at every sample (`|H (y - B)| = M`) and its angle
-to gravity is the same in every still pose (`g_k . H (m_k - B) = M sin(dip)`). The first fixes B and the symmetric
-part of H from all the samples a recording's motions sweep over the sphere (its six faces alone cannot: nine
-entries and three offsets from six points); the second fixes the rotation, so the magnetometer's output is in the
-frame the accelerometer and gyroscope share (conventions.md). Both are fitted together by least squares, each
-group weighted by its own residual scatter, which the covariance then states.
+to gravity is the same in every still pose (`g_k . v_k / |v_k| = sin(dip)`, `v_k = H (m_k - B)`). The first fixes
+B and the symmetric part of H from all the samples a recording's motions sweep over the sphere (its six faces alone
+cannot: nine entries and three offsets from six points); the second fixes the rotation, so the magnetometer's
+output is in the frame the accelerometer and gyroscope share (conventions.md). Both are fitted together by least
+squares, each group weighted by its own residual scatter, which the covariance then states. The
+residuals and their Jacobian: `mag_model`; the groups' noise and the magnitudes' bias: `fit_noise`.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ import itertools
 import numpy as np
 
 from rig.calibration.ellipsoid import fit_ellipsoid, sphere_map
+from rig.calibration.fit_noise import group_sigmas, sphere_noise_bias
 from rig.calibration.levenberg import minimise
+from rig.calibration.mag_model import jacobian, residuals
 from rig.rotations import axis_angle_matrix
 
 SIGMA_FLOOR = 1e-4                 # of the field: the least a residual is trusted to (model error)
@@ -62,9 +65,9 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
               H: np.ndarray, turn_sd: list[float] = ()) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """B, H, their covariance (12, 12: B then row-major H) and details, from samples y (n, 3) and the groups of
     `best_rotation` (the first the still poses, then the turns with their axes' standard deviations `turn_sd`,
-    rad), starting at B, H. Each is weighted by its own residuals' RMS; a turn's at least what its axis's
-    uncertainty makes of its samples, which all share that one axis (400 samples trusted as independent
-    pulled H 1 % out of shape)."""
+    rad), starting at B, H. Each is weighted by its own noise (`fit_noise.group_sigmas`); a turn's at least what
+    its axis's uncertainty makes of its samples, which all share that one axis (400 samples trusted as
+    independent pulled H 1 % out of shape)."""
     n = [len(y)] + [len(g[0]) for g in groups]
     kinds = np.repeat(np.arange(len(n)), n)
     floors = np.full(len(n), SIGMA_FLOOR)
@@ -77,39 +80,23 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
         w = 1.0 / np.maximum(sigma, floors)[kinds]
         p0 = np.concatenate([B, H.ravel() / norm, [float(np.mean(((gy - B) @ H.T * d).sum(axis=1))) / norm
                                                    for gy, d in groups]])
-        res = minimise(lambda p: _residuals(p, y, groups) * w, lambda p: _jacobian(p, y, groups) * w[:, None],
+        res = minimise(lambda p: residuals(p, y, groups) * w, lambda p: jacobian(p, y, groups) * w[:, None],
                        p0, tol=1e-13, max_nfev=200)
         B, H = res.x[:3], res.x[3:12].reshape(3, 3) * norm
         r = res.fun / w
-        sigma = np.array([float(np.sqrt(np.mean(r[kinds == k] ** 2))) for k in range(len(n))])
-    sigma = np.maximum(sigma, floors)
+        noise = sigma = group_sigmas(r, jacobian(res.x, y, groups) * w[:, None], kinds)
+    sigma = np.maximum(noise, floors)
     w = 1.0 / sigma[kinds]
-    J = _jacobian(res.x, y, groups) * w[:, None]
+    J0 = jacobian(res.x, y, groups)
+    J = J0 * w[:, None]
+    inv = np.linalg.pinv(J.T @ J)
+    x = res.x + inv[:, :12] @ sphere_noise_bias(J0[kinds == 0, :12], float(noise[0])) * w[0] ** 2
+    B, H = x[:3], x[3:12].reshape(3, 3) * norm
     scale = np.r_[np.ones(3), np.full(9, norm)]
-    cov = np.linalg.pinv(J.T @ J)[:12, :12] * scale[:, None] * scale[None]
-    return B, H, cov, {"norm_rms": float(sigma[0]) * norm, "dip_deg": float(np.degrees(np.arcsin(
-        np.clip(-res.x[12], -1, 1)))), "dot_rms": float(sigma[1]), "iterations": int(res.nfev),
-        "converged": bool(res.success)}
-
-
-def _residuals(p, y, groups):
-    B, H = p[:3], p[3:12].reshape(3, 3)
-    parts = [np.linalg.norm((y - B) @ H.T, axis=1) - 1.0]
-    parts += [((gy - B) @ H.T * d).sum(axis=1) - c for (gy, d), c in zip(groups, p[12:])]
-    return np.concatenate(parts)
-
-
-def _jacobian(p, y, groups):
-    B, H = p[:3], p[3:12].reshape(3, 3)
-    extra = len(groups)
-    d = y - B
-    e = (d @ H.T) / np.linalg.norm(d @ H.T, axis=1, keepdims=True)
-    rows = [np.hstack([-e @ H, np.einsum("ni,nj->nij", e, d).reshape(len(y), 9), np.zeros((len(y), extra))])]
-    for k, (gy, u) in enumerate(groups):
-        c = np.zeros((len(gy), extra))
-        c[:, k] = -1.0
-        rows.append(np.hstack([-u @ H, np.einsum("ki,kj->kij", u, gy - B).reshape(len(gy), 9), c]))
-    return np.vstack(rows)
+    cov = inv[:12, :12] * scale[:, None] * scale[None]
+    rms = [float(np.sqrt(np.mean(r[kinds == k] ** 2))) for k in (0, 1)]
+    return B, H, cov, {"norm_rms": rms[0] * norm, "dip_deg": float(np.degrees(np.arcsin(np.clip(-x[12], -1, 1)))),
+                       "dot_rms": rms[1], "iterations": int(res.nfev), "converged": bool(res.success)}
 
 
 def _centred(v: np.ndarray) -> np.ndarray:
