@@ -42,7 +42,9 @@ def norm_fit_covariance(chunks: list[np.ndarray], B: np.ndarray, H: np.ndarray, 
     residual = float(r @ r / dof) if dof > 0 else np.inf
     factor = float(student_t.ppf(ONE_SIGMA, dof)) ** 2 if dof > 0 else np.inf
     s2 = max(factor * residual, float(noise))
-    cov = s2 * np.linalg.pinv(J.T @ J)
+    scale = np.linalg.norm(J, axis=0)             # B's columns ~ H, H's ~ counts: (J^T J)^-1 unscaled loses all digits
+    _, sv, Vt = np.linalg.svd(J / scale, full_matrices=False)
+    cov = s2 * (Vt.T / sv ** 2) @ Vt / np.outer(scale, scale)
     full = np.zeros((12, 12))
     idx = np.r_[0:3, 3 + 3 * UPPER[0] + UPPER[1]]
     full[np.ix_(idx, idx)] = cov
