@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.calibration.norm_fit_cov import stated_uncertainty
 from rig.calibration.recording_fits import fit_faces
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import Pose
@@ -59,13 +60,16 @@ def _norm_only_fit(session: SessionData, sensor: str, poses: list[Pose], norm: f
         raise CalibrationError(f"{sensor}: {len(poses)} static poses and none says which axis was up; the norm model "
                                "needs at least 9")
     chunks = [session.raw[sensor][p.rows][~np.isnan(session.raw[sensor][p.rows]).any(axis=1)] for p in poses]
-    B, H, cost = fit_accel_upper([c[:SAMPLES_PER_INTERVAL] for c in chunks], norm)      # imu_tk fits 100 a pose
+    fitted = [c[:SAMPLES_PER_INTERVAL] for c in chunks]                                  # imu_tk fits 100 a pose
+    B, H, cost = fit_accel_upper(fitted, norm)
     rms = float(np.sqrt(np.mean((np.linalg.norm((y - B) @ H.T, axis=1) - norm) ** 2)))
     means = np.array([c.mean(axis=0) for c in chunks])
+    spread, basis, few = stated_uncertainty(fitted, B, H, norm)
     return TriadCalibration(B=B, H=H, method="recording-norm (upper-triangular H, imu_tk convention)",
-                            residual_rms=rms, extra={"poses": [p.name for p in poses],
-                                                     "pose_norm_error": (np.linalg.norm((means - B) @ H.T, axis=1)
-                                                                         - norm).tolist(), "cost": cost})
+                            residual_rms=rms, warnings=few, **spread,
+                            extra={"poses": [p.name for p in poses], "uncertainty": basis,
+                                   "pose_norm_error": (np.linalg.norm((means - B) @ H.T, axis=1) - norm).tolist(),
+                                   "cost": cost})
 
 
 def gravity_directions(session: SessionData, accel: TriadCalibration, poses: list[Pose]) -> np.ndarray:

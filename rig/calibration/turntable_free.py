@@ -18,6 +18,7 @@ import numpy as np
 
 from rig.calibration.ellipsoid import fit_ellipsoid
 from rig.calibration.levenberg import minimise
+from rig.calibration.norm_fit_cov import stated_uncertainty
 from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.static_detect import (
@@ -130,10 +131,12 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
         warnings.append(f"only {len(best['chunks'])} static intervals for the accelerometer's 9 unknowns (imu_tk asks "
                         f"for at least {IMU_TK_INTERVALS}, Tedaldi et al. recommend 36-50): its fit has little to "
                         "spare against a pose placed badly")
+    spread, basis, few = stated_uncertainty([accel_raw[a:b + 1] for a, b in best["chunks"]], best["B"], best["H"],
+                                            gravity)
     return TriadCalibration(B=best["B"], H=best["H"],
                             method="turntable-free-accel (imu_tk convention: upper-triangular H)",
-                            residual_rms=rms(best["chunks"]), iterations=len(sweep), warnings=warnings,
-                            extra={"k": best["k"], "cost": best["cost"],
+                            residual_rms=rms(best["chunks"]), iterations=len(sweep), warnings=warnings + few,
+                            **spread, extra={"k": best["k"], "cost": best["cost"], "uncertainty": basis,
                                    "fit_samples": [list(c) for c in best["chunks"]],
                                    "intervals": [list(c) for c in best["intervals"]],
                                    "residual_rms_full_intervals": rms(best["intervals"]), "k_sweep": sweep})

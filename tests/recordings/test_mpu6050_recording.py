@@ -47,5 +47,12 @@ def test_the_mpu6050_session_imports_calibrates_its_accelerometer_and_names_why_
     theirs = norm_rms(y[rows], *published_accel(), cal["gravity_mps2"])
     assert ours <= theirs, (ours, theirs)          # on the poses it fitted: its own least squares
 
+    # Ten poses for nine unknowns: its cross-term H[0, 1] and the authors' differ by 8 degrees, two least-squares
+    # fits of the same poses; the deviation it states must say the entry is that loosely determined (95 %: 2 sigma),
+    # and on how little the deviation itself rests.
+    H, H_std = np.array(accel["H"]), np.array(accel["H_std"])
+    assert abs(H[0, 1] - published_accel()[1][0, 1]) < 2 * H_std[0, 1], (H[0, 1], H_std[0, 1])
+    assert any("1 degree(s) of freedom" in w for w in accel["warnings"]), accel["warnings"]
+
     done = rig("discrepancy", str(tmp_path / "s"), "--json", str(tmp_path / "d.json"), "--replicas", "10")
     assert done.returncode == 3 and "the twin needs the gyro" in one_clear_line(done), done.stderr
