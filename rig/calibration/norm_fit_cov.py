@@ -18,10 +18,11 @@ estimate over s is t-distributed, not normal.
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import t as student_t
+
+from rig.calibration.tails import f_isf
 
 UPPER = np.triu_indices(3)
-ONE_SIGMA = 0.8413447460685429          # the normal's P(z < 1)
+OUTSIDE_ONE_SIGMA = 0.31731050786291415  # the normal's P(|z| > 1)
 FEW_DOF = 8                             # below, s from the residuals is uncertain by more than 1/sqrt(2 dof) = 25 %
 
 
@@ -40,7 +41,7 @@ def norm_fit_covariance(chunks: list[np.ndarray], B: np.ndarray, H: np.ndarray, 
     noise = np.mean([uh @ np.cov(c, rowvar=False) @ uh / len(c) for uh, c in zip(uH, chunks)])
     dof = len(chunks) - J.shape[1]
     residual = float(r @ r / dof) if dof > 0 else np.inf
-    factor = float(student_t.ppf(ONE_SIGMA, dof)) ** 2 if dof > 0 else np.inf
+    factor = f_isf(OUTSIDE_ONE_SIGMA, 1, dof) if dof > 0 else np.inf          # t_{dof, 0.8413}^2
     s2 = max(factor * residual, float(noise))
     scale = np.linalg.norm(J, axis=0)             # B's columns ~ H, H's ~ counts: (J^T J)^-1 unscaled loses all digits
     _, sv, Vt = np.linalg.svd(J / scale, full_matrices=False)

@@ -43,6 +43,20 @@ def f_sf(x: float, d1: float, d2: float) -> float:
     return _beta_i(1.0 / (1.0 + r), r / (1.0 + r), -math.log1p(r), math.log(r) - math.log1p(r), 0.5 * d2, 0.5 * d1)
 
 
+def f_isf(p: float, d1: float, d2: float) -> float:
+    """The x with P(X > x) = p for X ~ F(d1, d2), by bisection of `f_sf` in log x (monotone; to 1e-13 of x). The
+    square of Student's t quantile: t_{nu, 1 - q/2}^2 = f_isf(q, 1, nu)."""
+    if not 0.0 < p < 1.0:
+        raise ValueError(f"f_isf: p must be in (0, 1), got {p!r}")
+    lo, hi = -60.0, 60.0                                  # log x: f_sf runs from 1 to 0 across any d1, d2 used here
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if f_sf(math.exp(mid), d1, d2) > p else (lo, mid)
+        if hi - lo < 1e-13:
+            break
+    return math.exp(0.5 * (lo + hi))
+
+
 def _gamma_q(a: float, x: float) -> float:
     """Q(a, x) = Gamma(a, x) / Gamma(a): the series of P below a + 1, the continued fraction above."""
     log_front = a * math.log(x) - x - math.lgamma(a)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from rig.calibration.tails import chi2_sf, f_sf
+from rig.calibration.tails import chi2_sf, f_isf, f_sf
 
 
 def _close(ours: float, ref: float, rtol: float = 1e-12) -> bool:
@@ -31,6 +31,13 @@ def test_f_tail_equals_scipys():
             for x in xs:
                 ref = stats.f.sf(x, d1, d2)
                 assert _close(f_sf(x, d1, d2), ref, 1e-11), (x, d1, d2, f_sf(x, d1, d2), ref)
+
+
+def test_f_quantile_equals_scipys_and_gives_students_t_squared():
+    for p in (1e-6, 0.01, 0.3173105078629141, 0.5, 0.9):
+        for d1, d2 in ((1, 1), (1, 3), (1, 29), (2, 7), (5, 500)):
+            assert _close(f_isf(p, d1, d2), stats.f.isf(p, d1, d2), 1e-10), (p, d1, d2)
+    assert _close(f_isf(0.3173105078629141, 1, 3), stats.t.ppf(0.8413447460685429, 3) ** 2, 1e-10)
 
 
 def test_edges():
