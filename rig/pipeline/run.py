@@ -14,16 +14,13 @@ import os
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
-
-from rig.calibration import turntable_free
 from rig.calibration.recording import calibrate_recording
 from rig.calibration.recording_checks import check_no_stuck_axis
 from rig.calibration.reference_convention import refuse_conjugated_reference
 from rig.calibration.result import TriadCalibration
 from rig.calibration.threads import one_blas_thread
 from rig.errors import CalibrationError
-from rig.io.imu_tk import read_imu_tk
+from rig.io.import_imu_tk import import_imu_tk
 from rig.io.session_csv import read_session
 from rig.pipeline.move_rows import refine_vector_with_moves
 from rig.pipeline.result import SessionCalibration, summary_lines
@@ -173,20 +170,12 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
 
 
 def _calibrate_imu_tk(session_dir: Path, accel_file, gyro_file, gravity: float) -> tuple[SessionCalibration, dict]:
+    """imu_tk's files read as `rig import imu_tk` reads them and calibrated as that recording is (one way through:
+    the same fits, g-sensitivity and refusals as `rig calibrate --from` on the imported session)."""
     acc_path = _pick_file(session_dir, accel_file, "*acc*", "accel")
     gyr_path = _pick_file(session_dir, gyro_file, "*gyr*", "gyro")
-    t_a, acc = read_imu_tk(acc_path)
-    t_g, gyr = read_imu_tk(gyr_path)
-    if len(t_a) != len(t_g) or not np.allclose(t_a, t_g, rtol=0, atol=1e-6):
-        raise CalibrationError(f"{acc_path} and {gyr_path}: the timestamps differ (rows {len(t_a)} vs {len(t_g)}); "
-                               "the turntable-free calibration needs accel and gyro sampled together")
-    sensors = turntable_free.calibrate_turntable_free(t_a, acc, gyr, gravity=gravity)
-    warnings = ["imu_tk data: no reference orientations; calibrated without a turntable "
-                "(static intervals detected from the data)"]
-    for name, cal in sensors.items():
-        check_result(name, cal, gravity if name == "accel" else None, warnings)
-    result = SessionCalibration(dict(sensors), warnings)
-    result.summary = summary_lines(result)
+    session = import_imu_tk({"accel": acc_path, "gyro": gyr_path}, gravity=gravity)
+    result = calibrate_without_table(session)
     source = {"format": "imu_tk", "accel_file": str(acc_path), "gyro_file": str(gyr_path), "method": "turntable-free"}
     return result, source
 

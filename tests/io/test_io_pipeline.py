@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from io_synthetic import build_session
 
-from rig.errors import CalibrationError
+from rig.errors import CalibrationError, SessionFormatError
 from rig.io.calibration_json import read_calibration
 from rig.io.session_csv import write_session
 from rig.pipeline import calibrate_from_dir, calibrate_session
@@ -226,7 +226,7 @@ def test_unknown_method_refused(base):
 def test_imu_tk_timestamps_must_agree(tmp_path):
     (tmp_path / "s_acc.txt").write_text("0.0 1 2 3\n0.01 1 2 3\n")
     (tmp_path / "s_gyro.txt").write_text("0.0 1 2 3\n0.02 1 2 3\n")
-    with pytest.raises(CalibrationError, match="timestamps differ"):
+    with pytest.raises(SessionFormatError, match="s_gyro.txt, line 2, column 'timestamp': time stamps differ"):
         calibrate_from_dir(tmp_path, tmp_path / "out", fmt="imu_tk", echo=lambda s: None)
 
 
@@ -272,7 +272,7 @@ def test_partial_nan_rows_named(base):
 def test_imu_tk_files_without_folder(tmp_path):
     (tmp_path / "acc.txt").write_text("0.0 1 2 3\n0.01 1 2 3\n")
     (tmp_path / "gyr.txt").write_text("0.0 1 2 3\n0.01 1 2 4\n0.02 1 1 1\n")
-    with pytest.raises(CalibrationError, match="rows 2 vs 3"):
+    with pytest.raises(SessionFormatError, match="3 rows against 2"):
         calibrate_from_dir(None, tmp_path / "out", fmt="imu_tk", accel_file=tmp_path / "acc.txt",
                            gyro_file=tmp_path / "gyr.txt", echo=lambda s: None)
 
