@@ -108,8 +108,11 @@ def warn_coarse_sampling(moves: list[MoveStream], cal: TriadCalibration, warning
     """Where the table's rate profile has a corner between two point samples, no interpolation knows where it
     was: the move's angle is off by up to a/8 dt^2. Measured on the second independent simulator: 5.7 deg per
     sample (200 deg/s on both axes at 50 Hz) leaves a gyro H error of up to 0.022 % with point samples (0.004 %
-    with mean samples); 2.8 deg per sample (the same at 100 Hz) 0.005 %."""
-    worst = max(float(np.max(step)) for step in rotation_steps(moves, cal.B, cal.H))
+    with mean samples); 2.8 deg per sample (the same at 100 Hz) 0.005 %. A step across lost samples counts per
+    sample period it spans: losing samples is not sampling slowly (`warn_irregular_sampling` says it)."""
+    period = float(np.median(np.concatenate([np.diff(m.t) for m in moves])))
+    worst = max(float(np.max(step / np.maximum(np.round(np.diff(m.t) / period), 1.0)))
+                for step, m in zip(rotation_steps(moves, cal.B, cal.H), moves))
     if np.degrees(worst) > COARSE_DEG_PER_SAMPLE:
         warnings.append(f"gyro: the table turns up to {np.degrees(worst):.3g} deg between samples; above "
                         f"{COARSE_DEG_PER_SAMPLE:g} deg the integration between samples limits H to a few 0.01 % "

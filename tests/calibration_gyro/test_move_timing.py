@@ -7,7 +7,7 @@ import numpy as np
 
 from rig.calibration.result import TriadCalibration
 from rig.calibration.sampling import move_timing
-from rig.pipeline.solving import warn_irregular_sampling
+from rig.pipeline.solving import warn_coarse_sampling, warn_irregular_sampling
 from rig.session_data import MoveStream
 
 H = np.eye(3) * 1e-3       # rad/s per count
@@ -46,3 +46,15 @@ def test_stamps_scattered_about_the_period_are_named_in_a_warning():
     quiet = []
     warn_irregular_sampling(moves(lambda t: t + rng.uniform(0, 0.0005, t.size)), TriadCalibration(B=B, H=H, method="gyro-ukf"), quiet)
     assert quiet == []
+
+
+def test_lost_samples_are_not_called_slow_sampling():
+    """At 2 rad/s and 100 Hz the table turns 1.15 deg a sample; five samples lost in a row made it 6.9 deg "between
+    samples", and the coarse-sampling warning told the user to sample faster. Only the lost samples are named."""
+    fast = np.tile([2000.0, 0.0, 0.0], (100, 1)) * 5         # 5.7 deg a sample: slow sampling indeed
+    coarse, lost = [], []
+    cal = TriadCalibration(B=B, H=H, method="gyro-ukf")
+    warn_coarse_sampling([MoveStream(0, np.arange(100) * 0.01, fast, np.eye(3), np.eye(3))], cal, coarse)
+    warn_coarse_sampling(moves(drop=(40, 41, 42, 43, 44)), cal, lost)
+    assert len(coarse) == 1 and "between samples" in coarse[0], coarse
+    assert lost == [], lost
