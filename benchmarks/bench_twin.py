@@ -5,7 +5,7 @@ Beside the wall time, the CPU seconds of the command and its workers and the mac
 on a machine shared with others the CPU seconds are the figure their work does not change (on an idle 2-core
 machine the wall time is about half of them plus the serial start). Every recording in shared/data that the
 importers read is used; a recording that is not there is reported as missing, not skipped silently. Prints JSON.
-Usage: python benchmarks/bench_twin.py [--replicas 40] [--shared ../shared] [--only NAME]
+Usage: python benchmarks/bench_twin.py [--replicas N] [--shared ../shared] [--only NAME]
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ def _children_cpu() -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--replicas", type=int, default=40)
+    ap.add_argument("--replicas", type=int, default=None, help="default: the command's own (99, fewer for long ones)")
     ap.add_argument("--only", action="append", default=None, help="this recording only (repeatable)")
     ap.add_argument("--shared", type=Path, default=Path(os.environ.get("RIG_SHARED", ROOT.parent / "shared")))
     args = ap.parse_args()
@@ -65,7 +65,8 @@ def main() -> None:
             load0, cpu0 = os.getloadavg()[0], _children_cpu()
             t0 = time.perf_counter()
             run = subprocess.run([*RIG, "discrepancy", str(folder), "--json", str(folder / "d.json"),
-                                  "--replicas", str(args.replicas), "--heldout"], capture_output=True, text=True, check=False)
+                                  *(["--replicas", str(args.replicas)] if args.replicas else []), "--heldout"],
+                                 capture_output=True, text=True, check=False)
             seconds = time.perf_counter() - t0
             cpu, load1 = _children_cpu() - cpu0, os.getloadavg()[0]
             if run.returncode not in (0, 1):
@@ -74,6 +75,7 @@ def main() -> None:
             twin = json.loads((folder / "d.json").read_text())["twin"]
             s = twin["summary"]
             out["recordings"][name] = {
+                "replicas": twin["replicas"], "band_chance": round(twin["band_chance"], 4),
                 "seconds": round(seconds, 1), "cpu_seconds": round(cpu, 1), "load_1min_before": round(load0, 2),
                 "load_1min_after": round(load1, 2), "statistics": s["statistics"], "inside_before": s["inside_before"],
                 "inside_after": s["inside_after"], "inside_after_pct": round(100 * s["inside_after"] / s["statistics"], 1),

@@ -10,7 +10,7 @@ from contextlib import nullcontext
 import numpy as np
 
 from procedures.twin import Background, ReplicaJob, reconstruct, replica_runs, twin_view
-from procedures.twin_bands import bands
+from procedures.twin_bands import band_chance, bands, default_replicas
 from procedures.twin_extension import Cause, family, outside, propose
 from procedures.twin_model import added_rate, heldout_change, model_causes
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
@@ -22,9 +22,11 @@ from rig.session_data import SessionData
 SCHEMA = "rig-twin/1"
 
 
-def analyse_twin(session: SessionData, *, replicas: int = 40, attribution_replicas: int = 10,
+def analyse_twin(session: SessionData, *, replicas: int | None = None, attribution_replicas: int = 10,
                  seed: int = 0, heldout: bool = False) -> dict:
-    """Every statistic of the recording against its twin before and after the extension, as a JSON-able dict."""
+    """Every statistic of the recording against its twin before and after the extension, as a JSON-able dict;
+    `replicas`: None for `default_replicas` of the recording's rows."""
+    replicas = replicas or default_replicas(len(session.t))
     with one_blas_thread():
         return _analyse_twin(session, replicas=replicas, attribution_replicas=attribution_replicas, seed=seed,
                              heldout=heldout)
@@ -73,6 +75,7 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     return {
         "schema": SCHEMA, "session": session.source, "replicas": replicas, "replicas_failed": failed + failed_after,
         "band": "1-99 % of the replicas, as order statistics (the k-th smallest to the k-th largest)",
+        "band_chance": band_chance(replicas),          # of a statistic the twin gets right falling outside it
         "summary": {"statistics": len(before), "inside_before": len(before) - len(off),
                     "inside_after": len(after) - len(still), "outside_before": sorted(off),
                     "outside_after": sorted(still)},

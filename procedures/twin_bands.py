@@ -29,6 +29,19 @@ def band_rank(m: int, percent: float) -> int:
     return max(1, int(np.floor(percent / 100.0 * (m + 1) + 1e-9)))
 
 
+BAND_REPLICAS = 99          # the fewest whose extremes are the 1-99 % band itself (chance 1/(n+1) = 1 % a side)
+FEWEST_REPLICAS = 40        # below, the family test's chance per statistic (2/41 = 4.9 %) leaves it little power
+ROW_REPLICAS = 2_000_000    # rows x replicas that keep a whole analysis within its 30 s (the Xsens's 51 175 rows
+# at 40 replicas: 22.6-25.1 s on the 2 shared cores, README "What the simulation gets wrong on a real recording")
+
+
+def default_replicas(rows: int) -> int:
+    """How many replicas a recording of `rows` rows is set beside: the 1-99 % band's own 99 where the time target
+    allows (a 10 000-row recording in about 11 s), fewer for a longer one, down to 40, whose band is then its range
+    (2.4-97.6 %: stricter than the 1-99 % the analysis names, and so are the counts inside it)."""
+    return int(min(BAND_REPLICAS, max(FEWEST_REPLICAS, ROW_REPLICAS // max(rows, 1))))
+
+
 def band_chance(m: int, lo: float = 1.0, hi: float = 99.0) -> float:
     """The chance that a statistic the twin gets right falls outside the `bands` of m replicas."""
     return (band_rank(m, lo) + band_rank(m, 100.0 - hi)) / (m + 1)

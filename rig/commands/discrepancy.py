@@ -30,8 +30,9 @@ SENSORS = ("accel", "gyro", "mag")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Folder for the residual-vs-covariate plots (before / after each finding) and a summary.")
 @click.option("--no-replay", is_flag=True, help="Skip replaying the schedule in the simulator.")
-@click.option("--replicas", type=click.IntRange(10, 1000), default=40, show_default=True,
-              help="Replicas of a recording's twin (recordings without a turntable).")
+@click.option("--replicas", type=click.IntRange(10, 1000), default=None,
+              help="Replicas of a recording's twin (recordings without a turntable); default 99, whose extremes are "
+              "the 1-99 %% band, fewer for a long recording (down to 40) to stay within about 30 s.")
 @click.option("--heldout", is_flag=True,
               help="Recordings: also score the held-out predictions before and after the named model effects are "
                    "taken into the calibration (slower: every piece left out and refitted twice).")
@@ -92,7 +93,7 @@ def discrepancy(session_dir, json_out, report_dir, no_replay, replicas, heldout)
         sys.exit(Exit.FAIL)
 
 
-def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | None, replicas: int,
+def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | None, replicas: int | None,
                heldout: bool = False) -> None:
     """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
     from procedures.twin_analysis import analyse_twin

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
@@ -15,7 +16,7 @@ from inject import inject  # noqa: E402
 from test_magnetometer_recordings import hand_session  # noqa: E402
 from test_unseen_recordings import G  # noqa: E402
 
-from procedures.twin_bands import bands  # noqa: E402
+from procedures.twin_bands import bands, default_replicas  # noqa: E402
 from procedures.twin_analysis import analyse_twin  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
@@ -32,18 +33,23 @@ def test_a_clean_recording_is_inside_its_twin_and_no_effect_is_named():
     assert report["causes"] == []
 
 
-def test_a_statistic_the_twin_gets_right_falls_outside_its_band_by_chance_alone():
-    """Values drawn as the replicas are fall outside the band of 40 replicas at 2/(n+1) = 4.9 %, the rate the
-    family test counts as chance: numpy's interpolated 1-99 % of 40 draws left 6.2 % outside. 20 000 statistics
-    of three shapes: the rate is known to 0.15 % (one binomial standard deviation); 4 of them are allowed."""
+@pytest.mark.parametrize("rows", [10_000, 60_000])
+def test_a_statistic_the_twin_gets_right_falls_outside_its_band_by_chance_alone(rows):
+    """Values drawn as the replicas are fall outside the band of n replicas at 2/(n+1), the rate the family test
+    counts as chance: numpy's interpolated 1-99 % of 40 draws left 6.2 % outside. A short recording gets the
+    replicas whose band is the 1-99 % itself (1 % a side), a long one 40 (4.9 %). 20 000 statistics of three shapes:
+    the rate is known to 0.15 % (one binomial standard deviation); 4 of them are allowed."""
     rng = np.random.default_rng(0)
-    n, m = 40, 20_000
+    n, m = default_replicas(rows), 20_000
     draws = np.concatenate([rng.standard_normal((n + 1, m // 2)), rng.lognormal(0, 1, (n + 1, m // 4)),
                             rng.uniform(0, 1, (n + 1, m - m // 2 - m // 4))], axis=1)
     band = bands([dict(enumerate(row)) for row in draws[:n]])
-    out = np.mean([not band[k][0] <= draws[n, k] <= band[k][1] for k in range(m)])
+    low = np.mean([draws[n, k] < band[k][0] for k in range(m)])
+    out = low + np.mean([draws[n, k] > band[k][1] for k in range(m)])
     chance = 2 / (n + 1)
     assert abs(out - chance) < 4 * np.sqrt(chance * (1 - chance) / m), (out, chance)
+    if rows == 10_000:
+        assert abs(low - 0.01) < 4 * np.sqrt(0.01 * 0.99 / m), low          # the 1-99 % band the analysis names
 
 
 def test_a_clean_hand_recording_printed_with_decimals_is_at_chance_and_names_nothing():
