@@ -137,8 +137,8 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     columns = {s: imported_columns(session, s) for s in ("accel", "gyro")}
     sensors, refused = {}, {}
     try:                                                # name the recording, as every other refusal here does
-        sensors["accel"] = turntable_free_accel(t, checked(t, accel, "accel"), gravity=session.gravity,
-                                                init_static_s=rest, columns=columns["accel"])
+        sensors["accel"] = turntable_free_accel(t, accel, gravity=session.gravity, init_static_s=rest,
+                                                columns=columns["accel"])
         try:
             sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
                                                   init_static_s=rest, columns=columns["gyro"])

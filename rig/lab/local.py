@@ -15,6 +15,7 @@ import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from rig.io.session_csv import META_FILE, SAMPLES_FILE
 from rig.lab.errors import StoreInputError
 from rig.store.schema import APPLICATION_ID, LAYOUT_VERSION, SESSION_FILE
 
@@ -212,4 +213,4 @@ def interchange_folders(root: str | Path) -> list[Path]:
     imported recordings and exports, which the store does not read as sessions of its own, so a command that
     finds none of those can say what it found instead."""
     root = Path(root)
-    return sorted(p.parent for p in root.rglob("samples.csv") if (p.parent / "meta.json").is_file())
+    return sorted(p.parent for p in root.rglob(SAMPLES_FILE) if (p.parent / META_FILE).is_file())
