@@ -27,6 +27,7 @@ from rig.calibration.recording_mag import calibrate_recording_mag
 from rig.calibration.recording_vector import vector_fit
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
+from rig.calibration.static_segments import check_static_segments
 from rig.calibration.turntable_free import INITIAL_REST_S, checked, turntable_free_accel
 from rig.calibration.turntable_free_gyro import turntable_free_gyro
 from rig.errors import CalibrationError
@@ -76,6 +77,7 @@ def _calibrate_linear(session: SessionData, leave_out: dict | None, carry_sd: fl
     poses, turns = segments_of(session)
     if not poses:
         return _turntable_free(session)
+    check_static_segments(session, poses, turns)
     if "accel" not in session.raw:
         raise CalibrationError(f"{session.source}: a recording needs its accelerometer for the static poses")
     poses, saturated = unsaturated_poses(session, poses)
