@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.calibration.jackknife import one_step_deletions, scatter_to_stated
 from rig.calibration.tails import f_isf
 
 UPPER = np.triu_indices(3)
@@ -30,7 +31,8 @@ def norm_fit_covariance(chunks: list[np.ndarray], B: np.ndarray, H: np.ndarray, 
                         ) -> tuple[np.ndarray, np.ndarray, dict]:
     """B_cov (3, 3) and H_cov (9, 9, row-major vec(H), zero for the entries below the diagonal) of a norm-only fit
     to the static chunks [(m_i, 3) raw samples each], and what they rest on: the poses' degrees of freedom, the
-    residual and noise variances (norm unit^2) and the Student factor applied."""
+    residual and noise variances (norm unit^2), the Student factor applied, and the scatter of the parameters over
+    leave-one-pose-out refits against the deviation stated (`jackknife`)."""
     means = np.array([c.mean(axis=0) for c in chunks])
     d = means - B
     v = d @ H.T
@@ -49,8 +51,11 @@ def norm_fit_covariance(chunks: list[np.ndarray], B: np.ndarray, H: np.ndarray, 
     full = np.zeros((12, 12))
     idx = np.r_[0:3, 3 + 3 * UPPER[0] + UPPER[1]]
     full[np.ix_(idx, idx)] = cov
+    scatter = scatter_to_stated(one_step_deletions(J, r, [np.array([i]) for i in range(len(r))]),
+                                np.sqrt(np.clip(np.diag(cov), 0, None)))
     return full[:3, :3], full[3:, 3:], {"dof": dof, "residual_var": residual, "noise_var": float(noise),
-                                        "student_factor": factor, "variance": s2}
+                                        "student_factor": factor, "variance": s2,
+                                        "loo_scatter_to_predicted": scatter}
 
 
 def stds(B_cov: np.ndarray, H_cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -70,7 +75,8 @@ def stated_uncertainty(chunks: list[np.ndarray], B: np.ndarray, H: np.ndarray, n
     led = "residuals" if info["student_factor"] * info["residual_var"] > info["noise_var"] else "sample noise"
     note = {"dof": info["dof"], "from": led, "student_factor": info["student_factor"],
             "residual_rms_pose_means": float(np.sqrt(info["residual_var"])),
-            "noise_rms_pose_means": float(np.sqrt(info["noise_var"]))}
+            "noise_rms_pose_means": float(np.sqrt(info["noise_var"])),
+            "loo_scatter_to_predicted": info["loo_scatter_to_predicted"]}
     if info["dof"] >= FEW_DOF:
         return {"B_std": B_std, "H_std": H_std, "B_cov": B_cov, "H_cov": H_cov}, note, []
     warnings = [f"B_std and H_std rest on {info['dof']} degree(s) of freedom ({len(chunks)} poses for 9 unknowns): "

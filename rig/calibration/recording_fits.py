@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats
+from rig.calibration.jackknife import one_step_deletions, scatter_to_stated
 from rig.calibration.levenberg import minimise
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream
@@ -130,7 +131,9 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
     """H and its covariance from turns [(m_k summed raw rate * dt (3,), nominal axis (3,), angle rad, angle sd rad,
     axis sd rad)] and motions carrying gravity [(raw stream, g_start unit, g_end unit)], each carried component
     trusted to `carry_sd`. The covariance is scaled by the residuals' chi-square per degree of freedom: at least 1
-    under the default weight (the prior's), as it comes under a weight the data chose (`carry_sd_by_cross_validation`)."""
+    under the default weight (the prior's), as it comes under a weight the data chose (`carry_sd_by_cross_validation`).
+    info's `loo_scatter_to_predicted`: the scatter of H over leave-one-turn-or-motion-out refits against the
+    deviation this covariance states (`jackknife`; None where a piece cannot be left out)."""
     if not turns and not carries:
         raise CalibrationError("gyro: no turn of known angle and no motion between static poses to calibrate H from")
     ms = MoveSet.build([c[0] for c in carries], B) if carries else None
@@ -192,8 +195,12 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
     dof = max(J.shape[0] - 9, 1)
     chi2 = float(res.fun @ res.fun) / dof
     cov = np.linalg.pinv(J.T @ J) * (chi2 if carry_sd != CARRY_SD else max(chi2, 1.0)) * scale * scale
+    n_turns = len(M)
+    groups = [np.r_[k, n_turns + 3 * k:n_turns + 3 * k + 3] for k in range(n_turns)] + \
+             [4 * n_turns + np.arange(3 * c, 3 * c + 3) for c in range(len(carries))]
+    scatter = scatter_to_stated(one_step_deletions(J, res.fun, groups), np.sqrt(np.diag(cov)) / scale)
     return H, cov, {"converged": bool(res.success), "iterations": int(res.nfev), "rank": int(np.linalg.matrix_rank(J)),
-                    "moveset": ms}
+                    "moveset": ms, "loo_scatter_to_predicted": scatter}
 
 
 def carry_sd_by_cross_validation(B: np.ndarray, turns: list, carries: list, H0: np.ndarray) -> float:

@@ -78,7 +78,8 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
         extra={"turns": [t.name for t in turns], "turn_angle_error_deg": angle_err,
                "carries": [[poses[i].name, poses[j].name] for i, j in carries], "carry_error_deg": carry_err,
                "residual_unit": "rad (turn angles, carried gravity)",
-               "carry_sd": carry_sd if carries else None})
+               "carry_sd": carry_sd if carries else None,
+               "loo_scatter_to_predicted": info["loo_scatter_to_predicted"]})
     return cal, {"turns": len(turn_terms), "carries": len(carry_terms)}
 
 

@@ -74,9 +74,8 @@ def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dic
             out[f"gyro.turn_error[{turn.name}]"] = float(err)
         for (i, j), err in zip(rec.carries, gyro.extra.get("carry_error_deg", [])):
             out[f"gyro.carry_error[{rec.poses[i].name}->{rec.poses[j].name}]"] = float(err)
-    ratio = loo_scatter_ratio(session, rec)
-    if ratio is not None:
-        out["accel.loo_scatter_to_predicted"] = ratio
+    for sensor, ratio in loo_scatter_ratios(session, rec).items():
+        out[f"{sensor}.loo_scatter_to_predicted"] = ratio
     return out
 
 
@@ -141,9 +140,26 @@ def _pinned(u: np.ndarray, n: np.ndarray) -> float:
     return float(((n[0] if low else 0) + (n[-1] if high else 0)) / size)
 
 
-def loo_scatter_ratio(session: SessionData, rec: RecordingCalibration) -> float | None:
-    """Jackknife scatter of the accelerometer's B and H over leave-one-pose-out refits, over the standard deviations
-    the full fit states (median over the 12 entries): about 1 when the fit's uncertainty is honest."""
+def loo_scatter_ratios(session: SessionData, rec: RecordingCalibration) -> dict[str, float]:
+    """Per sensor, the jackknife scatter of its fitted parameters over leave-one-out refits against the standard
+    deviations its fit states (median over the entries): about 1 where the stated uncertainty is honest. The
+    accelerometer with faces refits without each pose; the norm-only accelerometer and the gyro (without each turn
+    or motion, against the deviation of its own fit, before the share it inherits from the accelerometer's frame,
+    which no refit of the gyro varies) take one Gauss-Newton step from their fit (`rig.calibration.jackknife`)."""
+    out = {}
+    accel, gyro = rec.sensors.get("accel"), rec.sensors.get("gyro")
+    ratio = _faces_loo_ratio(session, rec)
+    if ratio is None and accel is not None:
+        ratio = (accel.extra.get("uncertainty") or {}).get("loo_scatter_to_predicted")
+    if ratio is not None:
+        out["accel"] = float(ratio)
+    if gyro is not None and gyro.extra.get("loo_scatter_to_predicted") is not None:
+        out["gyro"] = float(gyro.extra["loo_scatter_to_predicted"])
+    return out
+
+
+def _faces_loo_ratio(session: SessionData, rec: RecordingCalibration) -> float | None:
+    """The accelerometer's with faces: refitted without each pose (at most LOO_POSES_MAX)."""
     accel = rec.sensors.get("accel")
     if accel is None or accel.H_std is None or not any(p.up for p in rec.poses):
         return None
