@@ -1,4 +1,4 @@
-"""meta.json of an interchange session folder, parsed and held to every rule session-csv.md gives its keys.
+"""meta.json of an interchange session folder, parsed and held to the rules session-csv.md gives its keys.
 
 The keys are checked before samples.csv is opened, since they say which columns it must have and how to read
 them. `json` keeps no positions, so an error finds the line of the offending key by its quoted name in the
