@@ -19,7 +19,8 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "io")]
 
 from io_synthetic import build_session  # noqa: E402
 
-from rig.io.session_csv import read_session, write_session  # noqa: E402
+from rig.io.session_csv import read_session  # noqa: E402
+from rig.io.session_writer import write_session  # noqa: E402
 from rig.pipeline import calibrate_from_dir, calibrate_session  # noqa: E402
 
 HOLD_S = 5.7   # gives ~15 000 rows with the default 20-hold schedule

@@ -28,7 +28,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "io")]
 
 from io_synthetic import build_session  # noqa: E402
 
-from rig.io.session_csv import write_session  # noqa: E402
+from rig.io.session_writer import write_session  # noqa: E402
 
 RIG = [sys.executable, "-m", "rig.cli"]
 

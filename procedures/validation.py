@@ -33,7 +33,7 @@ from rig.calibration.result import TriadCalibration
 from rig.calibration.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
 from rig.errors import CalibrationError, StopSignal
 from rig.io.calibration_json import read_calibration, triads_from_calibration
-from rig.io.session_csv import write_session
+from rig.io.session_writer import write_session
 from rig.session_data import SessionData
 from rig.store import SessionStore
 

@@ -19,7 +19,7 @@ def export(session, to, force):
     """Write the session in SESSION as meta.json + samples.csv in the folder given by --to."""
     from rig.commands.sessions import session_from_store
     from rig.errors import RigError
-    from rig.io.session_csv import write_session
+    from rig.io.session_writer import write_session
     from rig.store import SessionStore
 
     present = [name for name in EXPORTED if (to / name).exists()]

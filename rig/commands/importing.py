@@ -33,7 +33,7 @@ def _gravity_option(f):
 
 
 def _write(session, out: Path, force: bool) -> None:
-    from rig.io.session_csv import write_session
+    from rig.io.session_writer import write_session
 
     present = [name for name in WRITTEN if (out / name).exists()]
     if present and not force:

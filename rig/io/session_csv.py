@@ -1,53 +1,28 @@
-"""Read and write the interchange session layout `imu-session-csv/1` (shared/spec/session-csv.md).
+"""Read the interchange session layout `imu-session-csv/1` (shared/spec/session-csv.md).
 
 A session folder holds `meta.json` and `samples.csv`. Reading validates every rule of the spec and
 stops at the first broken one with a `SessionFormatError` naming file, line and column: a wrong
 matrix calibrated from a silently mis-read file costs far more than a refused import. Checks run
 vectorised over whole columns; only when one fails is the column scanned for the first bad line.
+The rules of meta.json are in rig.io.session_meta, those of samples.csv's columns in rig.io.session_samples,
+the layout's names and limits in rig.io.session_format; rig.io.session_writer writes a session.
 """
 
 from __future__ import annotations
 
-import json
-import math
 import os
 from pathlib import Path
 
 import numpy as np
 
 from rig.errors import SessionFormatError
-from rig.io.atomic import write_text_atomic
-from rig.io.columns import FIRST_DATA_LINE, cell_text, read_columns, read_header
+from rig.io.columns import FIRST_DATA_LINE, read_columns, read_header
+from rig.io.session_format import (ANGLE_LIMIT_DEG, META_FILE, PHASES, QUAT_COLUMNS, SAMPLES_FILE, SUPPLY_RANGE_V,
+                                   T_LIMIT_S, TABLE_COLUMNS, TEMP_RANGE_C)
+from rig.io.session_meta import read_meta
+from rig.io.session_samples import (check_header, check_hold_runs, check_increasing, check_move_steps, check_range,
+                                    check_time_unit, integers, quaternions, sensor_values)
 from rig.session_data import SessionData
-from rig.units import SENSOR_UNITS
-
-FORMAT = "imu-session-csv/1"
-META_FILE = "meta.json"
-SAMPLES_FILE = "samples.csv"
-QUAT_COLUMNS = ("qw", "qx", "qy", "qz")
-REQUIRED_COLUMNS = ("t", "phase", "step", *QUAT_COLUMNS)
-TABLE_COLUMNS = ("table_outer_deg", "table_inner_deg")
-PHASES = ("hold", "move")
-# A quaternion written with 6 significant digits is within ~1e-6 of unit norm; 1e-3 lets
-# tracker output through and still catches a swapped or missing component.
-QUAT_NORM_TOL = 1e-3
-REFERENCES = ("table", "none")
-UNITS = {"accel": ("counts", "m/s^2"), "gyro": ("counts", "deg/s", "rad/s"), "mag": ("counts", "uT")}
-SEGMENT_KINDS = ("static", "rotation")
-SENSOR_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
-# Plausible ranges: a value beyond them is a broken cell, not a measurement (epoch seconds up to the year 2286;
-# a temperature no electronics survive; 100 turns of an axis; counts of a 32-bit converter; 1000 g, 10^5 deg/s,
-# 10^5 uT in physical units).
-T_LIMIT_S = 1e10
-TEMP_RANGE_C = (-100.0, 250.0)
-SUPPLY_RANGE_V = (0.0, 100.0)
-ANGLE_LIMIT_DEG = 36000.0
-COUNT_LIMIT = 2.0 ** 32
-RAW_LIMITS = {"m/s^2": 1e4, "deg/s": 1e5, "rad/s": 2e3, "uT": 1e5}
-WRITE_BLOCK_ROWS = 50_000
-# Rows this many times further apart (or closer) than sample_rate_hz says: t is not in seconds (ms: 1000 times).
-# Not a tighter bound: rows of several sensors at different rates may come faster than the rate meta.json gives.
-RATE_MISMATCH = 100.0
 
 
 def read_session(folder: str | os.PathLike) -> SessionData:
@@ -62,7 +37,7 @@ def read_session(folder: str | os.PathLike) -> SessionData:
     samples = folder / SAMPLES_FILE
     header = read_header(samples)
     free = meta.get("reference", "table") == "none"
-    _check_header(samples, header, meta, free)
+    check_header(samples, header, meta, free)
     has_q = QUAT_COLUMNS[0] in header
     has_phase = "phase" in header
     raw_names = [c for names in meta["sensors"].values() for c in names]
@@ -76,10 +51,10 @@ def read_session(folder: str | os.PathLike) -> SessionData:
     n = len(cols["t"])
 
     t = cols["t"]
-    _check_increasing(samples, t)
-    _check_range(samples, "t", t, -T_LIMIT_S, T_LIMIT_S, "s")
+    check_increasing(samples, t)
+    check_range(samples, "t", t, -T_LIMIT_S, T_LIMIT_S, "s")
     if meta.get("sample_rate_hz") is not None:
-        _check_time_unit(samples, t, float(meta["sample_rate_hz"]))
+        check_time_unit(samples, t, float(meta["sample_rate_hz"]))
     if has_phase:
         phase = cols["phase"]
         bad = ~np.isin(phase, PHASES)
@@ -87,28 +62,28 @@ def read_session(folder: str | os.PathLike) -> SessionData:
             i = int(np.argmax(bad))
             raise SessionFormatError(samples, f"phase {str(phase[i])!r} is not 'hold' or 'move'", i + FIRST_DATA_LINE,
                                      "phase")
-        step = _integers(samples, "step", cols["step"])
-        _check_move_steps(samples, phase == "move", step)
-        _check_hold_runs(samples, phase == "hold", step)
+        step = integers(samples, "step", cols["step"])
+        check_move_steps(samples, phase == "move", step)
+        check_hold_runs(samples, phase == "hold", step)
         is_move = phase == "move"
     else:
         step, is_move = np.full(n, -1, dtype=np.int64), np.ones(n, dtype=bool)
-    q_ref = _quaternions(samples, cols, allow_empty=free) if has_q else np.full((n, 4), np.nan)
+    q_ref = quaternions(samples, cols, allow_empty=free) if has_q else np.full((n, 4), np.nan)
 
     units = meta.get("units", {})
-    raw = {name: _sensor_values(samples, cols, name, names, units.get(name, "counts"))
+    raw = {name: sensor_values(samples, cols, name, names, units.get(name, "counts"))
            for name, names in meta["sensors"].items()}
     table_deg = None
     if TABLE_COLUMNS[0] in header:
         table_deg = np.column_stack([cols[c] for c in TABLE_COLUMNS])
         for c in TABLE_COLUMNS:
-            _check_range(samples, c, cols[c], -ANGLE_LIMIT_DEG, ANGLE_LIMIT_DEG, "deg")
+            check_range(samples, c, cols[c], -ANGLE_LIMIT_DEG, ANGLE_LIMIT_DEG, "deg")
     temp_c = cols.get("temp_c")
     if temp_c is not None:
-        _check_range(samples, "temp_c", temp_c, *TEMP_RANGE_C, "degC")
+        check_range(samples, "temp_c", temp_c, *TEMP_RANGE_C, "degC")
     vsupply_v = cols.get("vsupply_v")
     if vsupply_v is not None:
-        _check_range(samples, "vsupply_v", vsupply_v, *SUPPLY_RANGE_V, "V")
+        check_range(samples, "vsupply_v", vsupply_v, *SUPPLY_RANGE_V, "V")
 
     return SessionData(
         t=t, is_move=is_move, step=step, q_ref=q_ref, raw=raw,
@@ -117,363 +92,3 @@ def read_session(folder: str | os.PathLike) -> SessionData:
         field_uT=float(meta["field_uT"]) if meta.get("field_uT") is not None else None,
         sample_rate_hz=float(meta["sample_rate_hz"]) if meta.get("sample_rate_hz") is not None else None,
         table_deg=table_deg, temp_c=temp_c, vsupply_v=vsupply_v, meta=meta, source=str(folder))
-
-
-def read_meta(path: Path) -> dict:
-    """Parse and validate meta.json; errors name the line of the offending key."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SessionFormatError(path, "missing: a session folder holds meta.json and samples.csv") from None
-    try:
-        meta = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise SessionFormatError(path, f"not valid JSON: {e.msg} (character {e.colno})", e.lineno) from None
-    if not isinstance(meta, dict):
-        raise SessionFormatError(path, "must hold a JSON object", 1)
-
-    def fail(key: str, message: str, where: str | None = None):
-        raise SessionFormatError(path, message, _line_of_key(text, where or key.split(".")[-1]), key)
-
-    if meta.get("format") != FORMAT:
-        fail("format", f"format must be {FORMAT!r}, got {meta.get('format')!r}")
-    if "gravity_mps2" not in meta:
-        fail("gravity_mps2", "required key missing (local gravity magnitude, m/s^2)", "format")
-    _check_positive(meta["gravity_mps2"], "gravity_mps2", fail)
-    sensors = meta.get("sensors")
-    if not isinstance(sensors, dict) or not sensors:
-        fail("sensors", "required: an object mapping accel/gyro/mag to their three raw columns", "format")
-    claimed: set[str] = set()
-    for name, names in sensors.items():
-        if name not in SENSOR_UNITS:
-            fail(f"sensors.{name}", f"unknown sensor {name!r}; expected one of {sorted(SENSOR_UNITS)}")
-        if (not isinstance(names, list) or len(names) != 3 or not all(isinstance(c, str) and c for c in names)
-                or len(set(names)) != 3):
-            fail(f"sensors.{name}", "must list three distinct raw column names in sensor-axis order")
-        clash = (claimed | set(REQUIRED_COLUMNS) | set(TABLE_COLUMNS) | {"temp_c", "vsupply_v"}) & set(names)
-        if clash:
-            fail(f"sensors.{name}", f"column {sorted(clash)[0]!r} is already used by another column or sensor")
-        claimed |= set(names)
-    if "mag" in sensors:
-        if meta.get("field_uT") is None:
-            fail("field_uT", "required when a magnetometer is present (local field magnitude, uT)", "mag")
-        _check_positive(meta["field_uT"], "field_uT", fail)
-    elif meta.get("field_uT") is not None:
-        _check_positive(meta["field_uT"], "field_uT", fail)
-    if meta.get("sample_rate_hz") is not None:
-        _check_positive(meta["sample_rate_hz"], "sample_rate_hz", fail)
-    if meta.get("initial_rest_s") is not None:
-        _check_positive(meta["initial_rest_s"], "initial_rest_s", fail)
-    reference = meta.get("reference", "table")
-    if reference not in REFERENCES:
-        fail("reference", f"must be one of {list(REFERENCES)}, got {reference!r}")
-    units = meta.get("units", {})
-    if not isinstance(units, dict):
-        fail("units", "must be an object: sensor -> unit of its raw columns")
-    for name, unit in units.items():
-        if name not in UNITS or unit not in UNITS[name]:
-            allowed = UNITS.get(name)
-            fail(f"units.{name}", f"unit {unit!r} for {name!r}; allowed: "
-                 + (", ".join(allowed) if allowed else f"a sensor among {sorted(UNITS)}"))
-    segments = meta.get("segments")
-    if segments is not None:
-        _check_segments(segments, fail)
-    table = meta.get("table")
-    if table is not None:
-        if not isinstance(table, dict):
-            fail("table", "must be an object with outer_axis_world and inner_axis_fixture")
-        for key in ("outer_axis_world", "inner_axis_fixture"):
-            v = table.get(key)
-            if v is not None and not (isinstance(v, list) and len(v) == 3 and all(_is_number(x) for x in v)
-                                      and any(x != 0 for x in v)):
-                fail(f"table.{key}", "must be a non-zero 3-vector")
-    return meta
-
-
-def _check_segments(segments, fail) -> None:
-    """The known facts of a recording without a turntable (session-csv.md): named intervals of t, in time order."""
-    if not isinstance(segments, list):
-        fail("segments", "must be a list of {name, t0, t1, kind, ...} objects")
-    last_t0 = -math.inf
-    for k, seg in enumerate(segments):
-        where = f"segments[{k}]"
-        if not isinstance(seg, dict):
-            fail(where, "must be an object", "segments")
-        name = seg.get("name", k)
-        label = f"{where} ({name})"
-        for key in ("t0", "t1"):
-            if not (_is_number(seg.get(key)) and math.isfinite(seg[key])):
-                fail(f"{label}.{key}", f"must be a finite number of seconds, got {seg.get(key)!r}", "segments")
-        if not seg["t0"] < seg["t1"]:
-            fail(f"{label}.t1", f"t1 = {seg['t1']!r} must be after t0 = {seg['t0']!r}", "segments")
-        if seg["t0"] < last_t0:
-            fail(f"{label}.t0", "segments must be listed in time order", "segments")
-        last_t0 = seg["t0"]
-        kind = seg.get("kind")
-        if kind not in SEGMENT_KINDS:
-            fail(f"{label}.kind", f"must be one of {list(SEGMENT_KINDS)}, got {kind!r}", "segments")
-        axis_key = "up" if kind == "static" else "axis"
-        if (kind == "rotation" or seg.get("up") is not None) and seg.get(axis_key) not in SENSOR_AXES:
-            fail(f"{label}.{axis_key}", f"must be one of {list(SENSOR_AXES)}, got {seg.get(axis_key)!r}", "segments")
-        if kind == "rotation" and not (_is_number(seg.get("angle_deg")) and math.isfinite(seg["angle_deg"])
-                                       and seg["angle_deg"] != 0):
-            fail(f"{label}.angle_deg", f"must be a non-zero number (signed, right-hand rule), got "
-                 f"{seg.get('angle_deg')!r}", "segments")
-        for key in ("tilt_deg_sd", "angle_deg_sd"):
-            if key in seg and not (_is_number(seg[key]) and math.isfinite(seg[key]) and seg[key] > 0):
-                fail(f"{label}.{key}", f"must be a positive number of degrees, got {seg[key]!r}", "segments")
-
-
-def _check_positive(value, key: str, fail) -> None:
-    if not (_is_number(value) and math.isfinite(value) and value > 0):
-        fail(key, f"must be a positive number, got {value!r}")
-
-
-def _is_number(x) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
-def _line_of_key(text: str, key: str) -> int | None:
-    needle = f'"{key}"'
-    for i, line in enumerate(text.splitlines(), 1):
-        if needle in line:
-            return i
-    return None
-
-
-def _check_header(path: Path, header: list[str], meta: dict, free: bool) -> None:
-    required = ("t",) if free else REQUIRED_COLUMNS
-    for name in required:
-        if name not in header:
-            raise SessionFormatError(path, "required column missing from the header", 1, name)
-    for group in (QUAT_COLUMNS, ("phase", "step"), TABLE_COLUMNS):
-        present = [c in header for c in group]
-        if any(present) and not all(present):
-            missing = group[present.index(False)]
-            raise SessionFormatError(path, f"columns {', '.join(group)} come together; this one is missing", 1,
-                                     missing)
-    for sensor, names in meta["sensors"].items():
-        for name in names:
-            if name not in header:
-                raise SessionFormatError(path, f"raw column of sensor {sensor!r} (meta.json) missing from the header",
-                                         1, name)
-
-
-def _check_range(path: Path, name: str, values: np.ndarray, lo: float, hi: float, unit: str) -> None:
-    """Finite is not enough: a 1e308 temperature passes every parser and breaks every fit after it."""
-    bad = (values < lo) | (values > hi)
-    if bad.any():
-        i = int(np.argmax(bad))
-        line = i + FIRST_DATA_LINE
-        raise SessionFormatError(path, f"{cell_text(path, line, name)} {unit} is outside the plausible range "
-                                 f"{lo:g} .. {hi:g} {unit}", line, name)
-
-
-def _integers(path: Path, name: str, values: np.ndarray) -> np.ndarray:
-    bad = values != np.round(values)
-    if bad.any():
-        i = int(np.argmax(bad))
-        line = i + FIRST_DATA_LINE
-        raise SessionFormatError(path, f"{cell_text(path, line, name)!r} is not an integer", line, name)
-    return values.astype(np.int64)
-
-
-def _check_increasing(path: Path, t: np.ndarray) -> None:
-    bad = np.flatnonzero(np.diff(t) <= 0)
-    if bad.size:
-        i = int(bad[0]) + 1
-        raise SessionFormatError(path, f"t = {float(t[i])!r} s is not after the previous row's t = {float(t[i - 1])!r} s "
-                                 "(t must increase monotonically)", i + FIRST_DATA_LINE, "t")
-
-
-def _check_time_unit(path: Path, t: np.ndarray, rate_hz: float) -> None:
-    """t is in seconds (session-csv.md); rows `RATE_MISMATCH` times further apart or closer than meta.json's
-    sample_rate_hz says are a t in another unit (a logger's milliseconds: 1000 times). Read as seconds, such a file
-    calibrated the gyro 1000 times too small with exit 0 and no warning."""
-    if len(t) < 3:
-        return
-    dt = float(np.median(np.diff(t)))
-    ratio = dt * rate_hz
-    if ratio > RATE_MISMATCH or ratio < 1.0 / RATE_MISMATCH:
-        raise SessionFormatError(path, f"rows are {dt:.6g} s apart (median) but meta.json says sample_rate_hz "
-                                 f"{rate_hz:g}: t must be in seconds (is it in ms or us?), or sample_rate_hz is "
-                                 "wrong", FIRST_DATA_LINE + 1, "t")
-
-
-def _check_move_steps(path: Path, is_move: np.ndarray, step: np.ndarray) -> None:
-    """A move row carries the step of the hold it leaves (session-csv.md)."""
-    hold_rows = np.where(~is_move, np.arange(len(step)), -1)
-    last_hold = np.maximum.accumulate(hold_rows)
-    bad = is_move & (last_hold >= 0) & (step != step[np.maximum(last_hold, 0)])
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise SessionFormatError(path, f"move row has step {step[i]}, but the hold it leaves has step "
-                                 f"{step[last_hold[i]]}", i + FIRST_DATA_LINE, "step")
-
-
-def _check_hold_runs(path: Path, is_hold: np.ndarray, step: np.ndarray) -> None:
-    """A hold's rows are one contiguous run: a step that comes back later is an error, not a guess at which
-    part to keep."""
-    rows = np.flatnonzero(is_hold)
-    if rows.size == 0:
-        return
-    starts = rows[np.concatenate([[True], (np.diff(rows) != 1) | (np.diff(step[rows]) != 0)])]
-    seen: dict[int, int] = {}
-    for r in starts:
-        j = int(step[r])
-        if j in seen:
-            raise SessionFormatError(path, f"hold step {j} appears again after other rows (it began at line "
-                                     f"{seen[j] + FIRST_DATA_LINE}); each hold must be one contiguous run",
-                                     int(r) + FIRST_DATA_LINE, "step")
-        seen[j] = int(r)
-
-
-def _quaternions(path: Path, cols: dict[str, np.ndarray], allow_empty: bool = False) -> np.ndarray:
-    """Unit quaternions, w >= 0; a recording without a turntable may leave whole rows empty (NaN)."""
-    q = np.column_stack([cols[c] for c in QUAT_COLUMNS])
-    empty = np.isnan(q)
-    partial = empty.any(axis=1) & ~empty.all(axis=1)
-    if partial.any() or (empty.any() and not allow_empty):
-        i = int(np.argmax(partial if partial.any() else empty.any(axis=1)))
-        raise SessionFormatError(path, "empty cell; the quaternion needs all four components", i + FIRST_DATA_LINE,
-                                 QUAT_COLUMNS[int(np.argmax(empty[i]))])
-    have = ~empty.any(axis=1)
-    norm = np.linalg.norm(q, axis=1)
-    bad = have & (np.abs(norm - 1.0) > QUAT_NORM_TOL)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise SessionFormatError(path, f"quaternion norm {norm[i]:.6g} is not 1 (tolerance {QUAT_NORM_TOL:g})",
-                                 i + FIRST_DATA_LINE, ",".join(QUAT_COLUMNS))
-    q = q / norm[:, None]
-    return np.where(q[:, :1] < 0, -q, q)  # q and -q are one rotation; conventions.md stores w >= 0
-
-
-def _sensor_values(path: Path, cols: dict[str, np.ndarray], sensor: str, names: list[str], unit: str) -> np.ndarray:
-    """One sensor's raw values, NaN on rows where it had no new sample (all three cells empty): integer counts,
-    or values already in `unit` (meta.json "units")."""
-    y = np.column_stack([cols[c] for c in names])
-    have = ~np.isnan(y)
-    partial = have.any(axis=1) & ~have.all(axis=1)
-    if partial.any():
-        i = int(np.argmax(partial))
-        missing = names[int(np.argmin(have[i]))]
-        raise SessionFormatError(path, f"sensor {sensor!r} has some but not all of its cells on this row",
-                                 i + FIRST_DATA_LINE, missing)
-    limit = RAW_LIMITS.get(unit, COUNT_LIMIT)
-    for k, name in enumerate(names):
-        values = y[:, k]
-        if unit == "counts":
-            bad = have[:, k] & (values != np.round(values))
-            if bad.any():
-                i = int(np.argmax(bad))
-                line = i + FIRST_DATA_LINE
-                raise SessionFormatError(path, f"{cell_text(path, line, name)!r} is not an integer count (values "
-                                         f"already in physical units need \"units\": {{\"{sensor}\": ...}} in "
-                                         "meta.json)", line, name)
-        _check_range(path, name, np.where(have[:, k], values, 0.0), -limit, limit, unit)
-    return y
-
-
-def write_session(session: SessionData, folder: str | os.PathLike, extra_meta: dict | None = None) -> Path:
-    """Write `session` as an interchange folder (created if needed); returns the folder.
-
-    Raw counts are written as integers (values in physical units, per `meta["units"]`, as floats) and NaN as
-    empty cells; a recording without a reference (all `q_ref` NaN) is written without quaternion columns, and
-    one without known holds (every row `step` -1) without `phase`/`step`. Keys of `session.meta` that the
-    layout does not define are kept, `extra_meta` is merged last. Rows are formatted a block at a time, so a
-    long recording is never held in memory as text.
-    """
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    meta = _meta_for(session, extra_meta)
-    _check_writable(session)
-    n = len(session.t)
-    units = meta.get("units", {})
-    columns: dict[str, object] = {"t": (session.t, _format_floats, False)}
-    if not (np.asarray(session.step) == -1).all():
-        columns["phase"] = (session.is_move, lambda v, name, allow: np.where(v, "move", "hold").tolist(), False)
-        columns["step"] = (np.asarray(session.step), lambda v, name, allow: [str(int(x)) for x in v.tolist()], False)
-    q = np.asarray(session.q_ref, dtype=float)
-    if not np.isnan(q).all():
-        for k, name in enumerate(QUAT_COLUMNS):
-            columns[name] = (q[:, k], _format_floats, meta.get("reference") == "none")
-    if session.table_deg is not None:
-        for k, name in enumerate(TABLE_COLUMNS):
-            columns[name] = (session.table_deg[:, k], _format_floats, True)
-    for sensor, names in session.columns.items():
-        fmt = _format_counts if units.get(sensor, "counts") == "counts" else _format_floats
-        for k, name in enumerate(names):
-            columns[name] = (session.raw[sensor][:, k], fmt, True)
-    if session.temp_c is not None:
-        columns["temp_c"] = (session.temp_c, _format_floats, True)
-    if session.vsupply_v is not None:
-        columns["vsupply_v"] = (session.vsupply_v, _format_floats, True)
-    for name, (values, _, _) in columns.items():
-        if len(values) != n:
-            raise ValueError(f"session column {name!r} has {len(values)} rows, t has {n}")
-
-    def pieces():
-        yield ",".join(columns) + "\n"
-        for lo in range(0, n, WRITE_BLOCK_ROWS):
-            block = [fmt(values[lo:lo + WRITE_BLOCK_ROWS], name, allow) for name, (values, fmt, allow)
-                     in columns.items()]
-            yield "".join(",".join(row) + "\n" for row in zip(*block))
-
-    write_text_atomic(folder / SAMPLES_FILE, pieces())
-    write_text_atomic(folder / META_FILE, json.dumps(meta, indent=2, default=_json_default) + "\n")
-    return folder
-
-
-def _check_writable(session: SessionData) -> None:
-    """Refuse to write a file that read_session would refuse."""
-    bad = np.flatnonzero(np.diff(session.t) <= 0)
-    if bad.size:
-        raise ValueError(f"t must increase: row {int(bad[0]) + 1} t = {session.t[bad[0] + 1]!r} s")
-    q = np.asarray(session.q_ref, dtype=float)
-    if session.meta.get("reference") == "none":
-        q = q[~np.isnan(q).any(axis=1)]
-    norm = np.linalg.norm(q, axis=1)
-    bad = np.flatnonzero(~(np.abs(norm - 1.0) <= QUAT_NORM_TOL))
-    if bad.size:
-        raise ValueError(f"q_ref row {int(bad[0])} has norm {norm[bad[0]]!r}, not 1")
-
-
-def _json_default(x):
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    raise TypeError(f"meta value {x!r} of type {type(x).__name__} is not JSON serialisable")
-
-
-def _meta_for(session: SessionData, extra_meta: dict | None) -> dict:
-    """session.meta, then extra_meta, then what the arrays themselves say (which always wins)."""
-    meta = {"format": FORMAT, **session.meta, **(extra_meta or {})}
-    meta.update({"format": FORMAT, "gravity_mps2": float(session.gravity),
-                 "sensors": {s: list(c) for s, c in session.columns.items()}})
-    if session.field_uT is not None:
-        meta["field_uT"] = float(session.field_uT)
-    if session.sample_rate_hz is not None:
-        meta["sample_rate_hz"] = float(session.sample_rate_hz)
-    if "mag" in session.raw and meta.get("field_uT") is None:
-        raise ValueError("a session with a magnetometer needs field_uT (session-csv.md)")
-    return meta
-
-
-def _format_floats(values: np.ndarray, name: str, allow_nan: bool = False) -> list[str]:
-    """Shortest round-trip text of each value (Python's repr); NaN as an empty cell where allowed."""
-    values = np.asarray(values, dtype=float)
-    finite = np.isfinite(values)
-    if not allow_nan and not finite.all():
-        raise ValueError(f"column {name!r}: non-finite value at row {int(np.argmin(finite))}")
-    return [repr(v) if ok else "" for v, ok in zip(values.tolist(), finite.tolist())]
-
-
-def _format_counts(values: np.ndarray, name: str, allow_nan: bool = True) -> list[str]:
-    values = np.asarray(values, dtype=float)
-    have = ~np.isnan(values)
-    bad = have & ((values != np.round(values)) | ~np.isfinite(values))
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise ValueError(f"column {name!r}: raw counts must be integers, row {i} holds {values[i]!r}")
-    return [str(int(v)) if ok else "" for v, ok in zip(values.tolist(), have.tolist())]

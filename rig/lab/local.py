@@ -15,7 +15,7 @@ import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from rig.io.session_csv import META_FILE, SAMPLES_FILE
+from rig.io.session_format import META_FILE, SAMPLES_FILE
 from rig.lab.errors import StoreInputError
 from rig.store.schema import APPLICATION_ID, LAYOUT_VERSION, SESSION_FILE
 

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from rig.calibration.result import TriadCalibration
 from rig.commands.attitude import attitude
 from rig.io.calibration_json import write_calibration
-from rig.io.session_csv import write_session
+from rig.io.session_writer import write_session
 from tests.io.io_synthetic import build_session
 
 

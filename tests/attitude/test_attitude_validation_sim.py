@@ -11,7 +11,8 @@ from rig.assembly import build_rig
 from rig.attitude.compare import AXES
 from rig.commands.attitude import attitude
 from rig.config import load_config
-from rig.io.session_csv import read_session, write_session
+from rig.io.session_csv import read_session
+from rig.io.session_writer import write_session
 
 DECLINATION_DEG = 10.0   # the simulated world's (fixtures/world/model.py Environment)
 

@@ -7,7 +7,7 @@ from click.testing import CliRunner
 
 from rig.commands.discrepancy import discrepancy
 from rig.discrepancy.stats import holm, prewhiten
-from rig.io.session_csv import write_session
+from rig.io.session_writer import write_session
 from tests.discrepancy.conftest import session_for
 
 

@@ -13,7 +13,8 @@ from procedures.session import plan_for, record
 from rig.assembly import build_sim
 from rig.config import load_config
 from rig.discrepancy import analyze
-from rig.io.session_csv import read_session, write_session
+from rig.io.session_csv import read_session
+from rig.io.session_writer import write_session
 from tests.procedures.test_procedure import MemoryStore
 
 G0 = 9.80665

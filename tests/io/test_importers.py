@@ -14,7 +14,8 @@ from rig.errors import InputError, SessionFormatError
 from rig.io.import_csv import import_csv
 from rig.io.import_ferraris import import_ferraris
 from rig.io.import_imu_tk import import_imu_tk
-from rig.io.session_csv import read_session, write_session
+from rig.io.session_csv import read_session
+from rig.io.session_writer import write_session
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from paths import SHARED  # noqa: E402

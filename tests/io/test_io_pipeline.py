@@ -11,7 +11,7 @@ from io_synthetic import build_session
 
 from rig.errors import CalibrationError, SessionFormatError
 from rig.io.calibration_json import read_calibration
-from rig.io.session_csv import write_session
+from rig.io.session_writer import write_session
 from rig.pipeline import calibrate_from_dir, calibrate_session
 from rig.pipeline.screening import turning_holds as _turning_holds
 from rig.session_data import HoldStats

@@ -10,7 +10,8 @@ import pytest
 from io_synthetic import build_session
 
 from rig.errors import SessionFormatError
-from rig.io.session_csv import read_session, write_session
+from rig.io.session_csv import read_session
+from rig.io.session_writer import write_session
 
 
 @pytest.fixture(scope="module")
@@ -268,7 +269,8 @@ def test_move_step_must_be_the_hold_it_leaves(folder, session):
 
 def test_a_hold_split_in_two_runs_is_an_error_naming_the_line(tmp_path):
     """Rows of hold 3 interrupted by other rows: refuse rather than silently keep one part."""
-    from rig.io.session_csv import read_session, write_session
+    from rig.io.session_csv import read_session
+    from rig.io.session_writer import write_session
 
     session, _ = build_session(seed=1)
     holds = session.hold_rows()

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from rig.errors import SessionFormatError
-from rig.io.session_csv import read_session, write_session
+from rig.io.session_csv import read_session
+from rig.io.session_writer import write_session
 from rig.session_data import SessionData
 
 

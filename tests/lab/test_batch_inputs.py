@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.io.recording import recording_session
-from rig.io.session_csv import write_session
+from rig.io.session_writer import write_session
 
 from .conftest import make_archive, no_traceback, rig
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.io.recording import recording_session
-from rig.io.session_csv import write_session
+from rig.io.session_writer import write_session
 
 RIG = [sys.executable, "-m", "rig.cli"]
 RATE_HZ = 100.0

@@ -20,7 +20,7 @@ from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.calibration.recording_fits import turn_angle  # noqa: E402
 from rig.calibration.recording_gyro import summed_rate  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
-from rig.io.session_csv import write_session  # noqa: E402
+from rig.io.session_writer import write_session  # noqa: E402
 
 RIG = [sys.executable, "-m", "rig.cli"]
 FERRARIS = SHARED / "data" / "imucal-ferraris"

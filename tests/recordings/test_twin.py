@@ -20,7 +20,7 @@ from procedures.twin_bands import bands, default_replicas  # noqa: E402
 from procedures.twin_analysis import analyse_twin  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
-from rig.io.session_csv import write_session  # noqa: E402
+from rig.io.session_writer import write_session  # noqa: E402
 
 RIG = [sys.executable, "-m", "rig.cli"]
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 from synthetic_holds import hold_arrays, move_arrays
 
-from rig.io.session_csv import read_session, write_session
+from rig.io.session_csv import read_session
+from rig.io.session_writer import write_session
 from rig.store import SessionStore
 
 
