@@ -22,10 +22,9 @@ import numpy as np
 
 from fixtures.world.model import Environment, SensorModel, World
 from fixtures.world.recorded import RecordedAttitude
-from rig.calibration.quantisation import noise_sigma
+from procedures.twin_noise import drawn_level, noise_dof, printed_decimals, sampled_rows, white_noise
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
-from rig.io.decimals import written_decimals
 from rig.io.recording import recording_session
 from rig.noise.statistics import recording_statistics
 from rig.rotations import matrix_from_rotvec
@@ -79,7 +78,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
     pose_of = np.full(n, -1)
     for k, p in enumerate(rec.poses):
         pose_of[p.rows] = k
-    up = [_unit(rec.sensors["accel"].apply(_clean(session.raw["accel"][p.rows]).mean(axis=0, keepdims=True))[0])
+    up = [_unit(rec.sensors["accel"].apply(sampled_rows(session.raw["accel"][p.rows]).mean(axis=0, keepdims=True))[0])
           for p in rec.poses]
     omega = _rate(session, rec)
     if added_rate is not None:
@@ -87,11 +86,11 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
         omega -= added_rate(t, f) - added_rate(t, f)[pose_of >= 0].mean(axis=0)
     omega[pose_of >= 0] = 0.0
     R = _attitudes(t, omega, pose_of, up)
-    sensors = {name: SensorModel(name, cal.H, cal.B, _white_noise(session, name, rec))
+    sensors = {name: SensorModel(name, cal.H, cal.B, white_noise(session, name, rec))
                for name, cal in rec.sensors.items() if name in session.raw}
     env = Environment(gravity=session.gravity, field_uT=session.field_uT or 50.0)
     if "mag" in sensors:
-        field = [rec.sensors["mag"].apply(_clean(session.raw["mag"][p.rows]).mean(axis=0, keepdims=True))[0]
+        field = [rec.sensors["mag"].apply(sampled_rows(session.raw["mag"][p.rows]).mean(axis=0, keepdims=True))[0]
                  for p in rec.poses]
         m_world = np.mean([R[p.rows[0]] @ m for p, m in zip(rec.poses, field)], axis=0)
         R = _attitudes(t, omega, pose_of, up, (field, m_world))
@@ -106,8 +105,8 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
-                  rec.sensors["gyro"].extra.get("carry_sd"), rec.sensors["gyro"].H, _decimals(session, sensors),
-                  {name: _noise_dof(session, name, rec) for name in sensors})
+                  rec.sensors["gyro"].extra.get("carry_sd"), rec.sensors["gyro"].H,
+                  printed_decimals(session, sensors), {name: noise_dof(session, name, rec) for name in sensors})
 
 
 def _attitudes(t: np.ndarray, omega: np.ndarray, pose_of: np.ndarray, up: list[np.ndarray],
@@ -159,7 +158,9 @@ class ReplayedAttitude:
 def replica(replay: Replay, seed: int, effects=(), quiet=()) -> SessionData:
     """One simulated recording of the twin (noise trial `seed`); the `quiet` sensors' white noise is left to an
     effect that replaces it."""
-    sensors = {n: SensorModel(m.kind, m.H, m.B, np.zeros(3) if n in quiet else _drawn_level(replay, n, seed))
+    order = sorted(replay.sensors)
+    sensors = {n: SensorModel(m.kind, m.H, m.B, np.zeros(3) if n in quiet
+                              else drawn_level(m.noise_std, (replay.noise_dof or {}).get(n), seed, order.index(n)))
                for n, m in replay.sensors.items()}
     world = World(None, sensors, env=replay.env, effects=list(effects), seed=seed, attitude=replay.attitude)
     raw = {}
@@ -292,49 +293,6 @@ def _run_background() -> tuple[bool, object]:
         return False, None
 
 
-def _white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) -> np.ndarray:
-    """Per-axis standard deviation of the noise ahead of the rounding (raw units), pooled over the poses: what the
-    simulator's white noise is. A recording in counts was rounded after its noise, and so is every replica, so the
-    rounding's own share is taken out here (quantisation.noise_sigma) rather than counted twice."""
-    stds = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses
-                     if len(_clean(session.raw[sensor][p.rows])) > 1])
-    if session.meta.get("units", {}).get(sensor, "counts") == "counts":
-        return noise_sigma(stds)
-    return np.sqrt(np.mean(stds ** 2, axis=0))
-
-
-def _drawn_level(replay: Replay, sensor: str, seed: int) -> np.ndarray:
-    """The replica's white noise level, per axis: the recording's estimate, drawn from what the poses allow it to
-    be (sigma^2 ~ nu s^2 / chi^2_nu). The level is estimated from the recording itself; a replica that took it as
-    known judged the most precise statistics (the spread and short-tau Allan deviation of a 50 s rest, pinned to
-    1.4 %) against a band blind to the 1.1 % by which the estimate misses: on clean hand sessions the rest's
-    spreads fell outside 5 times in 45 (3 with the draw), the other poses' 34 in 855 (31)."""
-    level = replay.sensors[sensor].noise_std
-    dof = (replay.noise_dof or {}).get(sensor)
-    if not dof:
-        return level
-    rng = np.random.default_rng((seed, 0x7E1A, sorted(replay.sensors).index(sensor)))
-    return level * np.sqrt(dof / rng.chisquare(dof, size=3))
-
-
-def _noise_dof(session: SessionData, sensor: str, rec: RecordingCalibration) -> float | None:
-    """The degrees of freedom of `_white_noise`'s pooled variance, a plain mean of the poses' variances:
-    nu = P^2 / sum(1 / (n_i - 1)) (each variance has 2 sigma^4 / (n_i - 1))."""
-    n = np.array([len(_clean(session.raw[sensor][p.rows])) for p in rec.poses])
-    n = n[n > 1]
-    return float(len(n) ** 2 / np.sum(1.0 / (n - 1))) if n.size else None
-
-
-def _decimals(session: SessionData, sensors) -> dict[str, int]:
-    """Sensors in physical units whose every value has at most d decimals: the file the recording came from was
-    printed so (a CSV export), and its replicas are printed alike. Without it the value step of a stream written
-    with 6 decimals is 1e-6 in the recording and a fraction of that in the replicas' unrounded values, and the
-    twin named quantisation on every such sensor of a clean recording."""
-    units = session.meta.get("units", {})
-    found = {s: written_decimals(session.raw[s]) for s in sensors if units.get(s, "counts") != "counts"}
-    return {s: d for s, d in found.items() if d is not None}
-
-
 def _rate(session: SessionData, rec: RecordingCalibration) -> np.ndarray:
     """The calibrated gyro rate (rad/s), gaps filled, not smoothed: a moving mean over a hand motion of hundreds of
     deg/s changes the rotation it integrates to (a 5-sample mean moved imucal's SI turns by up to 0.03 deg and its
@@ -365,7 +323,3 @@ def _head(R: np.ndarray, m: np.ndarray, m_world: np.ndarray) -> np.ndarray:
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
-
-
-def _clean(v: np.ndarray) -> np.ndarray:
-    return v[~np.isnan(v).any(axis=1)]
