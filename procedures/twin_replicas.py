@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from fixtures.world.model import SensorModel, World
-from procedures.twin import Replay
 from procedures.twin_noise import drawn_level
+from procedures.twin_replay import Replay
 from rig.calibration.recording import calibrate_recording
 from rig.errors import CalibrationError
 from rig.io.recording import recording_session

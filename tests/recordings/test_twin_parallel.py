@@ -13,7 +13,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 
-from procedures.twin import _align, _attitudes, reconstruct, twin_view  # noqa: E402
+from procedures.twin_replay import _align, _attitudes, reconstruct, twin_view  # noqa: E402
 from procedures.twin_replicas import Background, ReplicaJob, replica_runs, replica_statistics  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
