@@ -18,7 +18,8 @@ import numpy as np
 
 from drivers.contract import KeepsConfiguration
 from drivers.errors import DriverError
-from procedures.acquisition import HoldTarget, Recording, Sampler, hold_has_motion, log_outliers, log_read_errors
+from procedures.acquisition import Recording, Sampler, log_read_errors
+from procedures.hold_quality import HoldTarget, hold_has_motion, log_outliers
 from rig.schedule import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles

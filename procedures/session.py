@@ -13,8 +13,8 @@ from typing import Callable
 
 import numpy as np
 
-from procedures.acquisition import HoldTarget
 from procedures.calibration import MotionSettings, run_session
+from procedures.hold_quality import HoldTarget
 from rig.schedule import Orientation, plan_orientations, schedule_rotations
 from rig import __version__
 from rig.calibration.observability import check_schedule, move_axes_problem

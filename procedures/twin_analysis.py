@@ -9,10 +9,11 @@ from contextlib import nullcontext
 
 import numpy as np
 
-from procedures.twin import Background, ReplicaJob, reconstruct, replica_runs, twin_view
 from procedures.twin_bands import band_chance, bands, default_replicas
 from procedures.twin_extension import Cause, family, outside, propose
 from procedures.twin_model import added_rate, heldout_change, model_causes
+from procedures.twin_replay import reconstruct, twin_view
+from procedures.twin_replicas import Background, ReplicaJob, replica_runs
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.calibration.threads import one_blas_thread
 from rig.errors import CalibrationError

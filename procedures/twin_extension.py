@@ -17,8 +17,8 @@ import numpy as np
 
 from fixtures.world.effects.noise import (BiasInstability, HoldNotStill, Quantisation, RateRandomWalk, Saturation,
                                           ShapedNoise)
-from procedures.twin import Replay
 from procedures.twin_bands import band_chance
+from procedures.twin_replay import Replay
 from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.stats import holm

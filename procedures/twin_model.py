@@ -27,7 +27,7 @@ def model_causes(session: SessionData, rec: RecordingCalibration) -> tuple[list[
 
 def added_rate(causes: list[Cause]) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
     """What the gyro causes add to the rate (rad/s) at times t and calibrated specific force f (m/s^2): the
-    twin's replayed motion is the recording's gyro less this (`procedures.twin.reconstruct`)."""
+    twin's replayed motion is the recording's gyro less this (`procedures.twin_replay.reconstruct`)."""
     terms = [c.rate for c in causes if c.rate is not None]
     if not terms:
         return None

@@ -43,7 +43,7 @@ class ScheduleConfig:
     rate_hz: float = 100.0
     mag_every: int = 2
     max_hold_attempts: int = 3
-    sequential: bool = False           # sequential holds (procedures.acquisition.HoldTarget)
+    sequential: bool = False           # sequential holds (procedures.hold_quality.HoldTarget)
     hold_min_s: float = 1.5            # their shortest hold (bump detection judges three 0.5 s windows)
     hold_max_s: float = 0.0            # their longest; 0: three times hold_s
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from stopping import READS_PER_STEP, stopping_factory
 
-from procedures.acquisition import Recording, hold_has_motion
+from procedures.acquisition import Recording
+from procedures.hold_quality import hold_has_motion
 from procedures.orchestrator import RigSpec, SessionOrchestrator
 from rig.config import load_config
 from rig.outliers import isolated_outliers

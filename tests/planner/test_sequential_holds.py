@@ -5,7 +5,7 @@ import sys
 
 import numpy as np
 
-from procedures.acquisition import HoldTarget, mean_standard_error
+from procedures.hold_quality import HoldTarget, mean_standard_error
 
 
 def ar1(rng, n, rho, sd, offset=500.0):

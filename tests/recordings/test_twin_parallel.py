@@ -13,8 +13,8 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 
-from procedures.twin import (Background, ReplicaJob, _align, _attitudes, reconstruct, replica_runs,  # noqa: E402
-                             replica_statistics, twin_view)
+from procedures.twin_replay import _align, _attitudes, reconstruct, twin_view  # noqa: E402
+from procedures.twin_replicas import Background, ReplicaJob, replica_runs, replica_statistics  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.noise.statistics import _distinct, band_powers  # noqa: E402
