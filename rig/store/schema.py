@@ -11,9 +11,13 @@ nothing is overwritten, so a crash can only lose the transaction in progress.
 - `hold_stat`: per-channel mean/std/count of each hold, so a session can be inspected with the
   `sqlite3` shell without numpy.
 - `metadata`: key -> JSON value history. `event`: the session log.
+
+Every row records when it was written (`written_utc`, as `utc_now` spells it).
 """
 
 from __future__ import annotations
+
+from datetime import datetime, timezone
 
 SESSION_FILE = "session.sqlite"
 FORMAT = "rig-session-sqlite/1"
@@ -63,3 +67,8 @@ CREATE TABLE event (
 );
 CREATE INDEX segment_phase_step ON segment(phase, step);
 """
+
+
+def utc_now() -> str:
+    """The current UTC time to the millisecond, ISO 8601 with a `Z`: the `written_utc` of a row."""
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")

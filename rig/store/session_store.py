@@ -14,13 +14,11 @@ back when a status cannot be written otherwise, so the last word on a session is
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import sqlite3
 from collections.abc import Iterator
 from contextlib import closing, contextmanager
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +32,9 @@ from rig.errors import InputError, RigError
 from rig.session_data import SessionData
 from rig.store import arrays
 from rig.store.assemble import REDO_EVENT, RESUME_EVENT, assemble_session, resume_times
-from rig.store.schema import APPLICATION_ID, DDL, FORMAT, LAYOUT_VERSION, SESSION_FILE
+from rig.store.event_table import insert_event, read_events
+from rig.store.metadata_table import encode_metadata, insert_metadata, latest_metadata
+from rig.store.schema import APPLICATION_ID, DDL, FORMAT, LAYOUT_VERSION, SESSION_FILE, utc_now
 from rig.store.segment import checked_arrays, hold_stat_rows
 
 # complete: recorded, calibrated, verdict PASS (or no limits); rejected: the same with verdict FAIL;
@@ -77,8 +77,8 @@ class SessionStore:
         if path.exists():
             raise NotASession(f"{folder}: a session already exists here (finish it with `rig resume {folder}`, "
                               "or choose another folder)")
-        initial = {"format": FORMAT, "start_utc": _utc_now(), **metadata, "status": "running", "status_reason": ""}
-        encoded = _encode_metadata(path, initial)
+        initial = {"format": FORMAT, "start_utc": utc_now(), **metadata, "status": "running", "status_reason": ""}
+        encoded = encode_metadata(path, initial)
         try:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -94,7 +94,7 @@ class SessionStore:
                     for statement in DDL.split(";"):
                         if statement.strip():
                             db.execute(statement)
-                    db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
+                    insert_metadata(db, encoded)
             os.replace(partial, path)
         except BaseException:
             _remove_sqlite_files(partial)
@@ -124,14 +124,13 @@ class SessionStore:
     @property
     def metadata(self) -> dict:
         """Latest value of every metadata key."""
-        rows = self._db.execute("SELECT key, value FROM metadata ORDER BY id").fetchall()
-        return {key: json.loads(value) for key, value in rows}
+        return latest_metadata(self._db)
 
     def update_metadata(self, **changes) -> None:
         """Record new values for keys (the old rows stay in the file)."""
-        encoded = _encode_metadata(self.path, changes)
+        encoded = encode_metadata(self.path, changes)
         with self._transaction() as db:
-            db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
+            insert_metadata(db, encoded)
 
     def set_status(self, status: str, reason: str = "", **extra) -> None:
         """Status and reason (and `extra` metadata keys, in the same transaction); a terminal status also
@@ -141,14 +140,13 @@ class SessionStore:
             raise ValueError(f"{self.path}: status {status!r} is not one of {', '.join(STATUSES)}")
         changes = {**extra, "status": status, "status_reason": reason}
         if status in TERMINAL_STATUSES:
-            changes["end_utc"] = _utc_now()
-        encoded = _encode_metadata(self.path, changes)
+            changes["end_utc"] = utc_now()
+        encoded = encode_metadata(self.path, changes)
 
         def write() -> None:
             with self._transaction() as db:
-                db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
-                db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (NULL, 'status', ?, ?)",
-                           (f"{status}: {reason}" if reason else status, _utc_now()))
+                insert_metadata(db, encoded)
+                insert_event(db, None, "status", f"{status}: {reason}" if reason else status)
         try:
             write()
         except SessionStoreError:
@@ -180,14 +178,13 @@ class SessionStore:
     def mark_resume(self, t0: float, after_t: float | None, reason: str) -> None:
         """Record that a resumed run starts at session time `t0` (the last run ended at `after_t`): a clock gap
         no move may span. Kept as a `resume` event (runs are told apart by them) and in `resumes` metadata."""
-        mark = {"t_s": float(t0), "after_s": None if after_t is None else float(after_t), "utc": _utc_now(),
+        mark = {"t_s": float(t0), "after_s": None if after_t is None else float(after_t), "utc": utc_now(),
                 "reason": reason}
-        encoded = _encode_metadata(self.path, {"resumes": [*self.metadata.get("resumes", []), mark]})
+        encoded = encode_metadata(self.path, {"resumes": [*self.metadata.get("resumes", []), mark]})
         with self._transaction() as db:
-            db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
-            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
-                       (float(t0), RESUME_EVENT, f"resumed at session time {t0:.3f} s"
-                        + (f" after {after_t:.3f} s" if after_t is not None else "") + f": {reason}", _utc_now()))
+            insert_metadata(db, encoded)
+            insert_event(db, float(t0), RESUME_EVENT, f"resumed at session time {t0:.3f} s"
+                         + (f" after {after_t:.3f} s" if after_t is not None else "") + f": {reason}")
 
     def resume_times(self) -> list[float]:
         return resume_times(self._db)
@@ -240,13 +237,11 @@ class SessionStore:
         one like a resumed run's (see `rig.store.assemble`). No clock gap: moves recorded from `t` are whole."""
         self._pending_move = None
         with self._transaction() as db:
-            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
-                       (float(t), REDO_EVENT, reason, _utc_now()))
+            insert_event(db, float(t), REDO_EVENT, reason)
 
     def log_event(self, kind: str, message: str, t: float | None = None) -> None:
         with self._transaction() as db:
-            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
-                       (None if t is None else float(t), kind, message, _utc_now()))
+            insert_event(db, t, kind, message)
 
     # -- reading ---------------------------------------------------------------------------------
     def completed_holds(self) -> list[int]:
@@ -260,8 +255,7 @@ class SessionStore:
         return None if t_end is None else float(t_end)
 
     def events(self) -> list[dict]:
-        rows = self._db.execute("SELECT t, kind, message, written_utc FROM event ORDER BY id").fetchall()
-        return [{"t": t, "kind": kind, "message": message, "written_utc": utc} for t, kind, message, utc in rows]
+        return read_events(self._db)
 
     def to_session_data(self) -> SessionData:
         """All committed rows in time order; of a hold or move recorded more than once, the last committed."""
@@ -318,7 +312,7 @@ class SessionStore:
             "INSERT INTO segment (phase, step, attempt, t_start, t_end, n_rows, commanded_outer_deg,"
             " commanded_inner_deg, measured_outer_deg, measured_inner_deg, written_utc)"
             " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (phase, int(step), int(attempt), float(t[0]), float(t[-1]), int(t.size), *angles, _utc_now()))
+            (phase, int(step), int(attempt), float(t[0]), float(t[-1]), int(t.size), *angles, utc_now()))
         seg = cursor.lastrowid
         db.executemany("INSERT INTO array (segment_id, name, dtype, shape, data) VALUES (?, ?, ?, ?, ?)",
                        [(seg, name, *arrays.encode(values)) for name, values in data.items()])
@@ -402,33 +396,8 @@ def _check_file(path: Path, conn: sqlite3.Connection) -> None:
         raise SessionStoreError(f"{path}: corrupt session file: {'; '.join(problems[:3])}")
 
 
-def _encode_metadata(path: Path, values: dict) -> list[tuple[str, str, str]]:
-    now = _utc_now()
-    rows = []
-    for key, value in values.items():
-        try:
-            rows.append((key, json.dumps(value, default=_jsonable), now))
-        except TypeError as exc:
-            raise ValueError(f"{path}: metadata key {key!r} is not JSON-serialisable ({exc})") from exc
-    return rows
-
-
-def _jsonable(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, (Path, datetime)):
-        return str(value) if isinstance(value, Path) else value.isoformat()
-    raise TypeError(f"{type(value).__name__} is not JSON-serialisable")
-
-
 def _angle_pair(where: str, name: str, pair) -> tuple[float, float]:
     values = tuple(float(v) for v in pair)
     if len(values) != 2:
         raise ValueError(f"{where}: {name} must be (outer_deg, inner_deg), got {pair!r}")
     return values
-
-
-def _utc_now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
