@@ -7,9 +7,8 @@ power; FULL syncs the WAL at every commit, and with one commit per 5 s hold the 
 irrelevant (benchmarks/store_write_load.py measures it). So a crash of any kind loses at most the
 hold in progress and the move into it.
 
-A full disk must not leave a session marked "running": the store keeps a small reserve file beside the
-session (`.space-reserve`, written when the session is created or reopened for writing) and gives its space
-back when a status cannot be written otherwise, so the last word on a session is always recorded.
+A full disk must not leave a session marked "running": a status that cannot be written otherwise is written in
+the space the store keeps in hand (`space_reserve`).
 """
 
 from __future__ import annotations
@@ -36,6 +35,7 @@ from rig.store.event_table import insert_event, read_events
 from rig.store.metadata_table import encode_metadata, insert_metadata, latest_metadata
 from rig.store.schema import APPLICATION_ID, DDL, FORMAT, LAYOUT_VERSION, SESSION_FILE, utc_now
 from rig.store.segment import checked_arrays, hold_stat_rows
+from rig.store.space_reserve import RESERVE_BYTES, SpaceReserve
 
 # complete: recorded, calibrated, verdict PASS (or no limits); rejected: the same with verdict FAIL;
 # aborted: stopped by a signal; failed: a fault (hardware, data, disk) ended it. All but complete and
@@ -44,11 +44,9 @@ STATUSES = ("running", "complete", "rejected", "aborted", "failed")
 TERMINAL_STATUSES = ("complete", "rejected", "aborted", "failed")
 FINISHED_STATUSES = ("complete", "rejected")
 BUSY_TIMEOUT_S = 5.0
-RESERVE_FILE = ".space-reserve"
 # A session file is built under this suffix and renamed into place once it is a whole session: a create that
 # is killed part way (a stop signal at start-up) leaves no file that `rig resume` would refuse as not a session.
 PARTIAL_SUFFIX = ".partial"
-RESERVE_BYTES = 1 << 20
 
 
 class SessionStoreError(RigError):
@@ -66,6 +64,7 @@ class SessionStore:
         self.path = path
         self._conn: sqlite3.Connection | None = conn
         self._pending_move: tuple[int, dict[str, np.ndarray]] | None = None
+        self._reserve = SpaceReserve(path.parent)
 
     # -- opening ---------------------------------------------------------------------------------
     @classmethod
@@ -156,24 +155,11 @@ class SessionStore:
 
     def keep_reserve(self) -> None:
         """(Re)write the reserve file, so a status can still be written when the disk fills up."""
-        reserve = self.path.parent / RESERVE_FILE
-        try:
-            if reserve.is_file() and reserve.stat().st_size >= RESERVE_BYTES:
-                return
-            with open(reserve, "wb") as f:
-                f.write(bytes(RESERVE_BYTES))
-                f.flush()
-                os.fsync(f.fileno())
-        except OSError:
-            reserve.unlink(missing_ok=True)     # no room for it: the session can still run
+        self._reserve.keep()
 
     def release_reserve(self) -> bool:
         """Give the reserve's space back; False if there was none."""
-        reserve = self.path.parent / RESERVE_FILE
-        if not reserve.exists():
-            return False
-        reserve.unlink()
-        return True
+        return self._reserve.release()
 
     def mark_resume(self, t0: float, after_t: float | None, reason: str) -> None:
         """Record that a resumed run starts at session time `t0` (the last run ended at `after_t`): a clock gap
