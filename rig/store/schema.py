@@ -17,6 +17,7 @@ Every row records when it was written (`written_utc`, as `utc_now` spells it).
 
 from __future__ import annotations
 
+import sqlite3
 from datetime import datetime, timezone
 
 SESSION_FILE = "session.sqlite"
@@ -67,6 +68,15 @@ CREATE TABLE event (
 );
 CREATE INDEX segment_phase_step ON segment(phase, step);
 """
+
+
+def create_tables(db: sqlite3.Connection) -> None:
+    """Lay out an empty database as a session file: marked as ours, this layout version, every table."""
+    db.execute(f"PRAGMA application_id={APPLICATION_ID}")
+    db.execute(f"PRAGMA user_version={LAYOUT_VERSION}")
+    for statement in DDL.split(";"):
+        if statement.strip():
+            db.execute(statement)
 
 
 def utc_now() -> str:

@@ -1,41 +1,28 @@
 """The crash-safe, append-only store of one calibration session (`folder/session.sqlite`).
 
-SQLite in WAL mode with `synchronous=FULL`, one transaction per hold (with the move that led to it). Why FULL: in WAL mode
-NORMAL is already safe against a killed process, but a commit made under NORMAL can still roll back
-after a power cut or kernel crash, because the WAL is synced only at checkpoints. A lab bench loses
-power; FULL syncs the WAL at every commit, and with one commit per 5 s hold the fsync cost is
-irrelevant (benchmarks/store_write_load.py measures it). So a crash of any kind loses at most the
-hold in progress and the move into it.
-
-A full disk must not leave a session marked "running": a status that cannot be written otherwise is written in
-the space the store keeps in hand (`space_reserve`).
+One transaction per hold, with the move that led to it: a crash of any kind loses at most the hold in progress
+and the move into it (`sqlite_file` says why). A full disk must not leave a session marked "running": a status
+that cannot be written otherwise is written in the space the store keeps in hand (`space_reserve`).
 """
 
 from __future__ import annotations
 
-import os
-import shutil
 import sqlite3
-from collections.abc import Iterator
-from contextlib import closing, contextmanager
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 import numpy as np
 
-try:
-    import resource
-except ImportError:        # not on Windows: no file-size limit to name there
-    resource = None
-
-from rig.errors import InputError, RigError
 from rig.session_data import SessionData
 from rig.store import arrays
 from rig.store.assemble import REDO_EVENT, RESUME_EVENT, assemble_session, resume_times
 from rig.store.event_table import insert_event, read_events
 from rig.store.metadata_table import encode_metadata, insert_metadata, latest_metadata
-from rig.store.schema import APPLICATION_ID, DDL, FORMAT, LAYOUT_VERSION, SESSION_FILE, utc_now
+from rig.store.schema import FORMAT, SESSION_FILE, utc_now
 from rig.store.segment import checked_arrays, hold_stat_rows
-from rig.store.space_reserve import RESERVE_BYTES, SpaceReserve
+from rig.store.space_reserve import SpaceReserve
+from rig.store.sqlite_file import (NotASession, SessionStoreError, create_session_file, open_session_file,
+                                   transaction)
 
 # complete: recorded, calibrated, verdict PASS (or no limits); rejected: the same with verdict FAIL;
 # aborted: stopped by a signal; failed: a fault (hardware, data, disk) ended it. All but complete and
@@ -43,18 +30,6 @@ from rig.store.space_reserve import RESERVE_BYTES, SpaceReserve
 STATUSES = ("running", "complete", "rejected", "aborted", "failed")
 TERMINAL_STATUSES = ("complete", "rejected", "aborted", "failed")
 FINISHED_STATUSES = ("complete", "rejected")
-BUSY_TIMEOUT_S = 5.0
-# A session file is built under this suffix and renamed into place once it is a whole session: a create that
-# is killed part way (a stop signal at start-up) leaves no file that `rig resume` would refuse as not a session.
-PARTIAL_SUFFIX = ".partial"
-
-
-class SessionStoreError(RigError):
-    """A session file cannot be used or written (corrupt, closed, the disk full); names the path."""
-
-
-class NotASession(SessionStoreError, InputError):
-    """The folder given is not a session the rig can open (missing, another program's file, a newer layout)."""
 
 
 class SessionStore:
@@ -77,28 +52,7 @@ class SessionStore:
             raise NotASession(f"{folder}: a session already exists here (finish it with `rig resume {folder}`, "
                               "or choose another folder)")
         initial = {"format": FORMAT, "start_utc": utc_now(), **metadata, "status": "running", "status_reason": ""}
-        encoded = encode_metadata(path, initial)
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise NotASession(f"{folder}: cannot create the session folder: {exc.strerror}") from None
-        _check_writable(folder)
-        partial = folder / (SESSION_FILE + PARTIAL_SUFFIX)
-        _remove_sqlite_files(partial)          # left by a create that was killed before it finished
-        try:
-            with closing(_connect(partial, uri=partial.resolve().as_uri())) as conn:
-                with cls(path, conn)._transaction() as db:     # errors name the session file
-                    db.execute(f"PRAGMA application_id={APPLICATION_ID}")
-                    db.execute(f"PRAGMA user_version={LAYOUT_VERSION}")
-                    for statement in DDL.split(";"):
-                        if statement.strip():
-                            db.execute(statement)
-                    insert_metadata(db, encoded)
-            os.replace(partial, path)
-        except BaseException:
-            _remove_sqlite_files(partial)
-            raise
-        store = cls(path, _connect(path, uri=path.resolve().as_uri() + "?mode=rw"))
+        store = cls(path, create_session_file(path, encode_metadata(path, initial)))
         store.keep_reserve()
         return store
 
@@ -111,13 +65,7 @@ class SessionStore:
             raise NotASession(f"{folder}: no such session folder")
         if not path.is_file():
             raise NotASession(f"{folder}: not a rig session (no {SESSION_FILE})")
-        conn = _connect(path, uri=path.resolve().as_uri() + "?mode=rw")
-        try:
-            _check_file(path, conn)
-        except BaseException:
-            conn.close()
-            raise
-        return cls(path, conn)
+        return cls(path, open_session_file(path))
 
     # -- metadata and status ---------------------------------------------------------------------
     @property
@@ -268,22 +216,8 @@ class SessionStore:
             raise SessionStoreError(f"{self.path}: the session store is closed")
         return self._conn
 
-    @contextmanager
-    def _transaction(self) -> Iterator[sqlite3.Connection]:
-        db = self._db
-        try:
-            db.execute("BEGIN IMMEDIATE")
-            yield db
-            db.execute("COMMIT")
-        except BaseException as exc:
-            if db.in_transaction:
-                try:
-                    db.execute("ROLLBACK")
-                except sqlite3.Error:
-                    pass
-            if isinstance(exc, sqlite3.Error):
-                raise SessionStoreError(f"{self.path}: could not write the session: {_why(exc, self.path)}") from exc
-            raise
+    def _transaction(self) -> AbstractContextManager[sqlite3.Connection]:
+        return transaction(self._db, self.path)
 
     def _insert_segment(self, db: sqlite3.Connection, phase: str, step: int, attempt: int,
                         data: dict[str, np.ndarray], angles: tuple) -> int:
@@ -303,83 +237,6 @@ class SessionStore:
         db.executemany("INSERT INTO array (segment_id, name, dtype, shape, data) VALUES (?, ?, ?, ?, ?)",
                        [(seg, name, *arrays.encode(values)) for name, values in data.items()])
         return seg
-
-
-def _why(exc: sqlite3.Error, path: Path | None = None) -> str:
-    """SQLite's message, with the cause a user can act on when it is a write that failed."""
-    text = str(exc)
-    code = getattr(exc, "sqlite_errorcode", None)
-    if "full" in text or code == sqlite3.SQLITE_FULL:
-        return f"{text} (the disk is full: free some space, then `rig resume`)"
-    if path is not None and code is not None and code & 0xFF == sqlite3.SQLITE_IOERR:
-        return f"{text} ({_write_failure(Path(path))})"
-    return text
-
-
-def _write_failure(path: Path) -> str:
-    """Why a write to the session folder failed: a file-size limit on this process (ulimit -f: EFBIG), a full
-    disk (sometimes said as an I/O error), or the disk itself."""
-    folder = path.parent
-    try:
-        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
-    except (AttributeError, OSError, ValueError):
-        limit = None
-    if limit is not None and limit != getattr(resource, "RLIM_INFINITY", -1):
-        sizes = [f.stat().st_size for f in folder.glob(path.name + "*") if f.is_file()]
-        if sizes and max(sizes) + 65536 >= limit:
-            return (f"this process may not write files over {limit} bytes (file-size limit, ulimit -f) and the "
-                    "session has reached it: raise the limit, then `rig resume`")
-    try:
-        free = shutil.disk_usage(folder).free
-    except OSError:
-        free = None
-    if free is not None and free < RESERVE_BYTES:
-        return f"the disk is full ({free} bytes free): free some space, then `rig resume`"
-    return "writing to the disk failed (removed, read-only or failing?); check it, then `rig resume`"
-
-
-def _remove_sqlite_files(path: Path) -> None:
-    for name in (path, path.with_name(path.name + "-wal"), path.with_name(path.name + "-shm")):
-        name.unlink(missing_ok=True)
-
-
-def _check_writable(folder: Path) -> None:
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise NotASession(f"{folder}: the folder is not writable")
-
-
-def _connect(path: Path, uri: str) -> sqlite3.Connection:
-    """Connection in autocommit mode (transactions are explicit), WAL journal, synchronous=FULL."""
-    try:
-        conn = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=BUSY_TIMEOUT_S)
-        mode = conn.execute("PRAGMA journal_mode=WAL").fetchone()[0]
-        conn.execute("PRAGMA synchronous=FULL")
-        conn.execute("PRAGMA foreign_keys=ON")
-    except sqlite3.DatabaseError as exc:
-        if not os.access(path.parent, os.W_OK):
-            raise NotASession(f"{path.parent}: the folder is not writable ({exc})") from exc
-        if isinstance(exc, sqlite3.OperationalError) and not path.exists():
-            raise SessionStoreError(f"{path}: cannot create the session file ({_why(exc, path)})") from exc
-        raise NotASession(f"{path}: not a readable SQLite session file ({exc})") from exc
-    if mode.lower() != "wal":
-        conn.close()
-        raise SessionStoreError(f"{path}: could not switch the journal to WAL (got {mode!r})")
-    return conn
-
-
-def _check_file(path: Path, conn: sqlite3.Connection) -> None:
-    try:
-        app_id = conn.execute("PRAGMA application_id").fetchone()[0]
-        version = conn.execute("PRAGMA user_version").fetchone()[0]
-        if app_id != APPLICATION_ID:
-            raise NotASession(f"{path}: an SQLite file but not a rig session (application_id {app_id:#x})")
-        if version > LAYOUT_VERSION:
-            raise NotASession(f"{path}: layout version {version} is newer than this rig reads ({LAYOUT_VERSION})")
-        problems = [row[0] for row in conn.execute("PRAGMA quick_check")]
-    except sqlite3.DatabaseError as exc:
-        raise SessionStoreError(f"{path}: corrupt session file ({exc})") from exc
-    if problems != ["ok"]:
-        raise SessionStoreError(f"{path}: corrupt session file: {'; '.join(problems[:3])}")
 
 
 def _angle_pair(where: str, name: str, pair) -> tuple[float, float]:
