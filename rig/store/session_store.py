@@ -14,12 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from rig.session_data import SessionData
-from rig.store import arrays
 from rig.store.assemble import REDO_EVENT, RESUME_EVENT, assemble_session, resume_times
 from rig.store.event_table import insert_event, read_events
 from rig.store.metadata_table import encode_metadata, insert_metadata, latest_metadata
 from rig.store.schema import FORMAT, SESSION_FILE, utc_now
-from rig.store.segment import checked_arrays, hold_stat_rows
+from rig.store.segment import angle_pair, checked_arrays, hold_stat_rows
+from rig.store.segment_table import (check_continues, completed_holds, insert_hold_stats, insert_segment,
+                                     last_time)
 from rig.store.space_reserve import SpaceReserve
 from rig.store.sqlite_file import (NotASession, SessionStoreError, create_session_file, open_session_file,
                                    transaction)
@@ -136,17 +137,16 @@ class SessionStore:
         """Commit one hold (all samples, per-channel summary rows), with the move that led to it, in one
         transaction."""
         where = f"{self.path}: append_hold(step={step}, attempt={attempt})"
-        commanded = _angle_pair(where, "commanded_deg", commanded_deg)
-        measured = _angle_pair(where, "measured_deg", measured_deg)
+        commanded = angle_pair(where, "commanded_deg", commanded_deg)
+        measured = angle_pair(where, "measured_deg", measured_deg)
         data = checked_arrays(where, t, samples, q_ref, table_deg, temp_c, vsupply_v)
         stats = hold_stat_rows(data, self.metadata)
         move, self._pending_move = self._pending_move, None
         with self._transaction() as db:
             if move is not None:
-                self._insert_segment(db, "move", move[0], 1, move[1], (None,) * 4)
-            seg = self._insert_segment(db, "hold", step, attempt, data, commanded + measured)
-            db.executemany("INSERT INTO hold_stat (segment_id, channel, mean, std, count) VALUES (?, ?, ?, ?, ?)",
-                           [(seg, *row) for row in stats])
+                insert_segment(db, self.path, "move", move[0], 1, move[1], (None,) * 4)
+            seg = insert_segment(db, self.path, "hold", step, attempt, data, commanded + measured)
+            insert_hold_stats(db, seg, stats)
 
     def append_move(self, step: int, *, t: np.ndarray, samples: dict[str, np.ndarray], q_ref: np.ndarray,
                     table_deg: np.ndarray, temp_c: np.ndarray | None = None,
@@ -159,10 +159,7 @@ class SessionStore:
         """
         where = f"{self.path}: append_move(step={step})"
         data = checked_arrays(where, t, samples, q_ref, table_deg, temp_c, vsupply_v)
-        last = self.last_time()
-        if last is not None and data["t"][0] < last:
-            raise ValueError(f"{where}: t starts at {float(data['t'][0])!r} s, before the end of the last committed "
-                             f"segment ({last!r} s); session time must not run backwards")
+        check_continues(where, data["t"], self.last_time())
         self._pending_move = (int(step), data)
 
     def redo(self, t: float, reason: str) -> None:
@@ -180,13 +177,11 @@ class SessionStore:
     # -- reading ---------------------------------------------------------------------------------
     def completed_holds(self) -> list[int]:
         """Steps with at least one committed hold, ascending."""
-        rows = self._db.execute("SELECT DISTINCT step FROM segment WHERE phase = 'hold' ORDER BY step")
-        return [int(step) for (step,) in rows]
+        return completed_holds(self._db)
 
     def last_time(self) -> float | None:
         """Latest committed sample time, so a resumed run can continue the session's time base."""
-        (t_end,) = self._db.execute("SELECT max(t_end) FROM segment").fetchone()
-        return None if t_end is None else float(t_end)
+        return last_time(self._db)
 
     def events(self) -> list[dict]:
         return read_events(self._db)
@@ -218,29 +213,3 @@ class SessionStore:
 
     def _transaction(self) -> AbstractContextManager[sqlite3.Connection]:
         return transaction(self._db, self.path)
-
-    def _insert_segment(self, db: sqlite3.Connection, phase: str, step: int, attempt: int,
-                        data: dict[str, np.ndarray], angles: tuple) -> int:
-        t = data["t"]
-        (last_end,) = db.execute("SELECT max(t_end) FROM segment").fetchone()
-        if last_end is not None and t[0] < last_end:
-            raise ValueError(
-                f"{self.path}: append_{phase}(step={step}): t starts at {float(t[0])!r} s, before the end of the "
-                f"last committed segment ({last_end!r} s); session time must not run backwards (a resumed run "
-                "continues the clock from SessionStore.last_time())")
-        cursor = db.execute(
-            "INSERT INTO segment (phase, step, attempt, t_start, t_end, n_rows, commanded_outer_deg,"
-            " commanded_inner_deg, measured_outer_deg, measured_inner_deg, written_utc)"
-            " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (phase, int(step), int(attempt), float(t[0]), float(t[-1]), int(t.size), *angles, utc_now()))
-        seg = cursor.lastrowid
-        db.executemany("INSERT INTO array (segment_id, name, dtype, shape, data) VALUES (?, ?, ?, ?, ?)",
-                       [(seg, name, *arrays.encode(values)) for name, values in data.items()])
-        return seg
-
-
-def _angle_pair(where: str, name: str, pair) -> tuple[float, float]:
-    values = tuple(float(v) for v in pair)
-    if len(values) != 2:
-        raise ValueError(f"{where}: {name} must be (outer_deg, inner_deg), got {pair!r}")
-    return values
