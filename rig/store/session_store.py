@@ -24,13 +24,7 @@ from rig.store.segment_table import (check_continues, completed_holds, insert_ho
 from rig.store.space_reserve import SpaceReserve
 from rig.store.sqlite_file import (NotASession, SessionStoreError, create_session_file, open_session_file,
                                    transaction)
-
-# complete: recorded, calibrated, verdict PASS (or no limits); rejected: the same with verdict FAIL;
-# aborted: stopped by a signal; failed: a fault (hardware, data, disk) ended it. All but complete and
-# rejected can be resumed.
-STATUSES = ("running", "complete", "rejected", "aborted", "failed")
-TERMINAL_STATUSES = ("complete", "rejected", "aborted", "failed")
-FINISHED_STATUSES = ("complete", "rejected")
+from rig.store.status import status_changes
 
 
 class SessionStore:
@@ -84,12 +78,7 @@ class SessionStore:
         """Status and reason (and `extra` metadata keys, in the same transaction); a terminal status also
         records `end_utc`. Logged as a `status` event. If the disk is full, the reserve is given up to
         write it."""
-        if status not in STATUSES:
-            raise ValueError(f"{self.path}: status {status!r} is not one of {', '.join(STATUSES)}")
-        changes = {**extra, "status": status, "status_reason": reason}
-        if status in TERMINAL_STATUSES:
-            changes["end_utc"] = utc_now()
-        encoded = encode_metadata(self.path, changes)
+        encoded = encode_metadata(self.path, status_changes(self.path, status, reason, extra))
 
         def write() -> None:
             with self._transaction() as db:
