@@ -1,4 +1,4 @@
-"""The session's `metadata` table: values of any key as JSON rows, appended and read back latest first.
+"""The session's `metadata` table: values of any key as JSON rows, appended, read back as each key's latest.
 
 A metadata change is a new row for the same key, never an overwrite (see `schema.py`), so every writer appends
 the rows `encode_metadata` makes and a reader takes the latest row of each key.

@@ -7,6 +7,8 @@ programming error in the acquisition loop never leaves a half-understood hold in
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 QUAT_NORM_TOL = 1e-3
@@ -59,7 +61,7 @@ def checked_arrays(where: str, t, samples: dict, q_ref, table_deg, temp_c, vsupp
     return out
 
 
-def angle_pair(where: str, name: str, pair) -> tuple[float, float]:
+def angle_pair(where: str, name: str, pair: Iterable[float]) -> tuple[float, float]:
     """(outer_deg, inner_deg) of a hold's table angles; ValueError naming `where` and `name` if not two."""
     values = tuple(float(v) for v in pair)
     if len(values) != 2:

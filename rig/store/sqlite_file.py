@@ -1,8 +1,8 @@
 """The SQLite file of a session: created whole or not at all, opened and checked to be a rig session, and
 written in explicit transactions whose errors name the file.
 
-SQLite in WAL mode with `synchronous=FULL`, one transaction per hold (with the move that led to it). Why FULL: in WAL mode
-NORMAL is already safe against a killed process, but a commit made under NORMAL can still roll back
+SQLite in WAL mode with `synchronous=FULL`, one transaction per hold (with the move that led to it). Why FULL:
+in WAL mode NORMAL is already safe against a killed process, but a commit made under NORMAL can still roll back
 after a power cut or kernel crash, because the WAL is synced only at checkpoints. A lab bench loses
 power; FULL syncs the WAL at every commit, and with one commit per 5 s hold the fsync cost is
 irrelevant (benchmarks/store_write_load.py measures it). So a crash of any kind loses at most the
