@@ -36,7 +36,7 @@ from rig.pipeline import calibrate_session
 from rig.pipeline.writing import write_session_calibration
 from rig.report.calibration_report import evaluate, write_report
 from rig.store import SESSION_FILE, NotASession, SessionStore
-from rig.store.session_store import FINISHED_STATUSES
+from rig.store.status import FINISHED_STATUSES
 
 Progress = Callable[[int, int, str], None]
 RESUME_GAP_S = 1.0          # session time left between the last sample of a run and the first of its resumption

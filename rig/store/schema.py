@@ -11,9 +11,14 @@ nothing is overwritten, so a crash can only lose the transaction in progress.
 - `hold_stat`: per-channel mean/std/count of each hold, so a session can be inspected with the
   `sqlite3` shell without numpy.
 - `metadata`: key -> JSON value history. `event`: the session log.
+
+Every row records when it was written (`written_utc`, as `utc_now` spells it).
 """
 
 from __future__ import annotations
+
+import sqlite3
+from datetime import datetime, timezone
 
 SESSION_FILE = "session.sqlite"
 FORMAT = "rig-session-sqlite/1"
@@ -63,3 +68,17 @@ CREATE TABLE event (
 );
 CREATE INDEX segment_phase_step ON segment(phase, step);
 """
+
+
+def create_tables(db: sqlite3.Connection) -> None:
+    """Lay out an empty database as a session file: marked as ours, this layout version, every table."""
+    db.execute(f"PRAGMA application_id={APPLICATION_ID}")
+    db.execute(f"PRAGMA user_version={LAYOUT_VERSION}")
+    for statement in DDL.split(";"):
+        if statement.strip():
+            db.execute(statement)
+
+
+def utc_now() -> str:
+    """The current UTC time to the millisecond, ISO 8601 with a `Z`: the `written_utc` of a row."""
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")

@@ -1,10 +1,13 @@
-"""Checking the arrays of one hold or move before they are written, and their summary rows.
+"""Checking the arrays (and a hold's table angles) of one hold or move before they are written, and their
+summary rows.
 
 A bad array is refused before the transaction starts, with the argument and row named, so a
 programming error in the acquisition loop never leaves a half-understood hold in the file.
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -56,6 +59,14 @@ def checked_arrays(where: str, t, samples: dict, q_ref, table_deg, temp_c, vsupp
             raise ValueError(f"{where}: samples[{sensor!r}] row {_first(np.isinf(y).any(1))} is infinite")
         out[f"raw:{sensor}"] = y
     return out
+
+
+def angle_pair(where: str, name: str, pair: Iterable[float]) -> tuple[float, float]:
+    """(outer_deg, inner_deg) of a hold's table angles; ValueError naming `where` and `name` if not two."""
+    values = tuple(float(v) for v in pair)
+    if len(values) != 2:
+        raise ValueError(f"{where}: {name} must be (outer_deg, inner_deg), got {pair!r}")
+    return values
 
 
 def hold_stat_rows(arrays: dict[str, np.ndarray], metadata: dict) -> list[tuple[str, float | None, float | None, int]]:

@@ -1,62 +1,30 @@
 """The crash-safe, append-only store of one calibration session (`folder/session.sqlite`).
 
-SQLite in WAL mode with `synchronous=FULL`, one transaction per hold (with the move that led to it). Why FULL: in WAL mode
-NORMAL is already safe against a killed process, but a commit made under NORMAL can still roll back
-after a power cut or kernel crash, because the WAL is synced only at checkpoints. A lab bench loses
-power; FULL syncs the WAL at every commit, and with one commit per 5 s hold the fsync cost is
-irrelevant (benchmarks/store_write_load.py measures it). So a crash of any kind loses at most the
-hold in progress and the move into it.
-
-A full disk must not leave a session marked "running": the store keeps a small reserve file beside the
-session (`.space-reserve`, written when the session is created or reopened for writing) and gives its space
-back when a status cannot be written otherwise, so the last word on a session is always recorded.
+One transaction per hold, with the move that led to it: a crash of any kind loses at most the hold in progress
+and the move into it (`sqlite_file` says why). A full disk must not leave a session marked "running": a status
+that cannot be written otherwise is written in the space the store keeps in hand (`space_reserve`).
 """
 
 from __future__ import annotations
 
-import json
-import os
-import shutil
 import sqlite3
-from collections.abc import Iterator
-from contextlib import closing, contextmanager
-from datetime import datetime, timezone
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 import numpy as np
 
-try:
-    import resource
-except ImportError:        # not on Windows: no file-size limit to name there
-    resource = None
-
-from rig.errors import InputError, RigError
 from rig.session_data import SessionData
-from rig.store import arrays
 from rig.store.assemble import REDO_EVENT, RESUME_EVENT, assemble_session, resume_times
-from rig.store.schema import APPLICATION_ID, DDL, FORMAT, LAYOUT_VERSION, SESSION_FILE
-from rig.store.segment import checked_arrays, hold_stat_rows
-
-# complete: recorded, calibrated, verdict PASS (or no limits); rejected: the same with verdict FAIL;
-# aborted: stopped by a signal; failed: a fault (hardware, data, disk) ended it. All but complete and
-# rejected can be resumed.
-STATUSES = ("running", "complete", "rejected", "aborted", "failed")
-TERMINAL_STATUSES = ("complete", "rejected", "aborted", "failed")
-FINISHED_STATUSES = ("complete", "rejected")
-BUSY_TIMEOUT_S = 5.0
-RESERVE_FILE = ".space-reserve"
-# A session file is built under this suffix and renamed into place once it is a whole session: a create that
-# is killed part way (a stop signal at start-up) leaves no file that `rig resume` would refuse as not a session.
-PARTIAL_SUFFIX = ".partial"
-RESERVE_BYTES = 1 << 20
-
-
-class SessionStoreError(RigError):
-    """A session file cannot be used or written (corrupt, closed, the disk full); names the path."""
-
-
-class NotASession(SessionStoreError, InputError):
-    """The folder given is not a session the rig can open (missing, another program's file, a newer layout)."""
+from rig.store.event_table import insert_event, read_events
+from rig.store.metadata_table import encode_metadata, insert_metadata, latest_metadata
+from rig.store.schema import FORMAT, SESSION_FILE, utc_now
+from rig.store.segment import angle_pair, checked_arrays, hold_stat_rows
+from rig.store.segment_table import (check_continues, completed_holds, insert_hold_stats, insert_segment,
+                                     last_time)
+from rig.store.space_reserve import SpaceReserve
+from rig.store.sqlite_file import (NotASession, SessionStoreError, create_session_file, open_session_file,
+                                   transaction)
+from rig.store.status import status_changes
 
 
 class SessionStore:
@@ -66,6 +34,7 @@ class SessionStore:
         self.path = path
         self._conn: sqlite3.Connection | None = conn
         self._pending_move: tuple[int, dict[str, np.ndarray]] | None = None
+        self._reserve = SpaceReserve(path.parent)
 
     # -- opening ---------------------------------------------------------------------------------
     @classmethod
@@ -77,29 +46,8 @@ class SessionStore:
         if path.exists():
             raise NotASession(f"{folder}: a session already exists here (finish it with `rig resume {folder}`, "
                               "or choose another folder)")
-        initial = {"format": FORMAT, "start_utc": _utc_now(), **metadata, "status": "running", "status_reason": ""}
-        encoded = _encode_metadata(path, initial)
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise NotASession(f"{folder}: cannot create the session folder: {exc.strerror}") from None
-        _check_writable(folder)
-        partial = folder / (SESSION_FILE + PARTIAL_SUFFIX)
-        _remove_sqlite_files(partial)          # left by a create that was killed before it finished
-        try:
-            with closing(_connect(partial, uri=partial.resolve().as_uri())) as conn:
-                with cls(path, conn)._transaction() as db:     # errors name the session file
-                    db.execute(f"PRAGMA application_id={APPLICATION_ID}")
-                    db.execute(f"PRAGMA user_version={LAYOUT_VERSION}")
-                    for statement in DDL.split(";"):
-                        if statement.strip():
-                            db.execute(statement)
-                    db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
-            os.replace(partial, path)
-        except BaseException:
-            _remove_sqlite_files(partial)
-            raise
-        store = cls(path, _connect(path, uri=path.resolve().as_uri() + "?mode=rw"))
+        initial = {"format": FORMAT, "start_utc": utc_now(), **metadata, "status": "running", "status_reason": ""}
+        store = cls(path, create_session_file(path, encode_metadata(path, initial)))
         store.keep_reserve()
         return store
 
@@ -112,43 +60,30 @@ class SessionStore:
             raise NotASession(f"{folder}: no such session folder")
         if not path.is_file():
             raise NotASession(f"{folder}: not a rig session (no {SESSION_FILE})")
-        conn = _connect(path, uri=path.resolve().as_uri() + "?mode=rw")
-        try:
-            _check_file(path, conn)
-        except BaseException:
-            conn.close()
-            raise
-        return cls(path, conn)
+        return cls(path, open_session_file(path))
 
     # -- metadata and status ---------------------------------------------------------------------
     @property
     def metadata(self) -> dict:
         """Latest value of every metadata key."""
-        rows = self._db.execute("SELECT key, value FROM metadata ORDER BY id").fetchall()
-        return {key: json.loads(value) for key, value in rows}
+        return latest_metadata(self._db)
 
     def update_metadata(self, **changes) -> None:
         """Record new values for keys (the old rows stay in the file)."""
-        encoded = _encode_metadata(self.path, changes)
+        encoded = encode_metadata(self.path, changes)
         with self._transaction() as db:
-            db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
+            insert_metadata(db, encoded)
 
     def set_status(self, status: str, reason: str = "", **extra) -> None:
         """Status and reason (and `extra` metadata keys, in the same transaction); a terminal status also
         records `end_utc`. Logged as a `status` event. If the disk is full, the reserve is given up to
         write it."""
-        if status not in STATUSES:
-            raise ValueError(f"{self.path}: status {status!r} is not one of {', '.join(STATUSES)}")
-        changes = {**extra, "status": status, "status_reason": reason}
-        if status in TERMINAL_STATUSES:
-            changes["end_utc"] = _utc_now()
-        encoded = _encode_metadata(self.path, changes)
+        encoded = encode_metadata(self.path, status_changes(self.path, status, reason, extra))
 
         def write() -> None:
             with self._transaction() as db:
-                db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
-                db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (NULL, 'status', ?, ?)",
-                           (f"{status}: {reason}" if reason else status, _utc_now()))
+                insert_metadata(db, encoded)
+                insert_event(db, None, "status", f"{status}: {reason}" if reason else status)
         try:
             write()
         except SessionStoreError:
@@ -158,36 +93,22 @@ class SessionStore:
 
     def keep_reserve(self) -> None:
         """(Re)write the reserve file, so a status can still be written when the disk fills up."""
-        reserve = self.path.parent / RESERVE_FILE
-        try:
-            if reserve.is_file() and reserve.stat().st_size >= RESERVE_BYTES:
-                return
-            with open(reserve, "wb") as f:
-                f.write(bytes(RESERVE_BYTES))
-                f.flush()
-                os.fsync(f.fileno())
-        except OSError:
-            reserve.unlink(missing_ok=True)     # no room for it: the session can still run
+        self._reserve.keep()
 
     def release_reserve(self) -> bool:
         """Give the reserve's space back; False if there was none."""
-        reserve = self.path.parent / RESERVE_FILE
-        if not reserve.exists():
-            return False
-        reserve.unlink()
-        return True
+        return self._reserve.release()
 
     def mark_resume(self, t0: float, after_t: float | None, reason: str) -> None:
         """Record that a resumed run starts at session time `t0` (the last run ended at `after_t`): a clock gap
         no move may span. Kept as a `resume` event (runs are told apart by them) and in `resumes` metadata."""
-        mark = {"t_s": float(t0), "after_s": None if after_t is None else float(after_t), "utc": _utc_now(),
+        mark = {"t_s": float(t0), "after_s": None if after_t is None else float(after_t), "utc": utc_now(),
                 "reason": reason}
-        encoded = _encode_metadata(self.path, {"resumes": [*self.metadata.get("resumes", []), mark]})
+        encoded = encode_metadata(self.path, {"resumes": [*self.metadata.get("resumes", []), mark]})
         with self._transaction() as db:
-            db.executemany("INSERT INTO metadata (key, value, written_utc) VALUES (?, ?, ?)", encoded)
-            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
-                       (float(t0), RESUME_EVENT, f"resumed at session time {t0:.3f} s"
-                        + (f" after {after_t:.3f} s" if after_t is not None else "") + f": {reason}", _utc_now()))
+            insert_metadata(db, encoded)
+            insert_event(db, float(t0), RESUME_EVENT, f"resumed at session time {t0:.3f} s"
+                         + (f" after {after_t:.3f} s" if after_t is not None else "") + f": {reason}")
 
     def resume_times(self) -> list[float]:
         return resume_times(self._db)
@@ -205,17 +126,16 @@ class SessionStore:
         """Commit one hold (all samples, per-channel summary rows), with the move that led to it, in one
         transaction."""
         where = f"{self.path}: append_hold(step={step}, attempt={attempt})"
-        commanded = _angle_pair(where, "commanded_deg", commanded_deg)
-        measured = _angle_pair(where, "measured_deg", measured_deg)
+        commanded = angle_pair(where, "commanded_deg", commanded_deg)
+        measured = angle_pair(where, "measured_deg", measured_deg)
         data = checked_arrays(where, t, samples, q_ref, table_deg, temp_c, vsupply_v)
         stats = hold_stat_rows(data, self.metadata)
         move, self._pending_move = self._pending_move, None
         with self._transaction() as db:
             if move is not None:
-                self._insert_segment(db, "move", move[0], 1, move[1], (None,) * 4)
-            seg = self._insert_segment(db, "hold", step, attempt, data, commanded + measured)
-            db.executemany("INSERT INTO hold_stat (segment_id, channel, mean, std, count) VALUES (?, ?, ?, ?, ?)",
-                           [(seg, *row) for row in stats])
+                insert_segment(db, self.path, "move", move[0], 1, move[1], (None,) * 4)
+            seg = insert_segment(db, self.path, "hold", step, attempt, data, commanded + measured)
+            insert_hold_stats(db, seg, stats)
 
     def append_move(self, step: int, *, t: np.ndarray, samples: dict[str, np.ndarray], q_ref: np.ndarray,
                     table_deg: np.ndarray, temp_c: np.ndarray | None = None,
@@ -228,10 +148,7 @@ class SessionStore:
         """
         where = f"{self.path}: append_move(step={step})"
         data = checked_arrays(where, t, samples, q_ref, table_deg, temp_c, vsupply_v)
-        last = self.last_time()
-        if last is not None and data["t"][0] < last:
-            raise ValueError(f"{where}: t starts at {float(data['t'][0])!r} s, before the end of the last committed "
-                             f"segment ({last!r} s); session time must not run backwards")
+        check_continues(where, data["t"], self.last_time())
         self._pending_move = (int(step), data)
 
     def redo(self, t: float, reason: str) -> None:
@@ -240,28 +157,23 @@ class SessionStore:
         one like a resumed run's (see `rig.store.assemble`). No clock gap: moves recorded from `t` are whole."""
         self._pending_move = None
         with self._transaction() as db:
-            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
-                       (float(t), REDO_EVENT, reason, _utc_now()))
+            insert_event(db, float(t), REDO_EVENT, reason)
 
     def log_event(self, kind: str, message: str, t: float | None = None) -> None:
         with self._transaction() as db:
-            db.execute("INSERT INTO event (t, kind, message, written_utc) VALUES (?, ?, ?, ?)",
-                       (None if t is None else float(t), kind, message, _utc_now()))
+            insert_event(db, t, kind, message)
 
     # -- reading ---------------------------------------------------------------------------------
     def completed_holds(self) -> list[int]:
         """Steps with at least one committed hold, ascending."""
-        rows = self._db.execute("SELECT DISTINCT step FROM segment WHERE phase = 'hold' ORDER BY step")
-        return [int(step) for (step,) in rows]
+        return completed_holds(self._db)
 
     def last_time(self) -> float | None:
         """Latest committed sample time, so a resumed run can continue the session's time base."""
-        (t_end,) = self._db.execute("SELECT max(t_end) FROM segment").fetchone()
-        return None if t_end is None else float(t_end)
+        return last_time(self._db)
 
     def events(self) -> list[dict]:
-        rows = self._db.execute("SELECT t, kind, message, written_utc FROM event ORDER BY id").fetchall()
-        return [{"t": t, "kind": kind, "message": message, "written_utc": utc} for t, kind, message, utc in rows]
+        return read_events(self._db)
 
     def to_session_data(self) -> SessionData:
         """All committed rows in time order; of a hold or move recorded more than once, the last committed."""
@@ -288,147 +200,5 @@ class SessionStore:
             raise SessionStoreError(f"{self.path}: the session store is closed")
         return self._conn
 
-    @contextmanager
-    def _transaction(self) -> Iterator[sqlite3.Connection]:
-        db = self._db
-        try:
-            db.execute("BEGIN IMMEDIATE")
-            yield db
-            db.execute("COMMIT")
-        except BaseException as exc:
-            if db.in_transaction:
-                try:
-                    db.execute("ROLLBACK")
-                except sqlite3.Error:
-                    pass
-            if isinstance(exc, sqlite3.Error):
-                raise SessionStoreError(f"{self.path}: could not write the session: {_why(exc, self.path)}") from exc
-            raise
-
-    def _insert_segment(self, db: sqlite3.Connection, phase: str, step: int, attempt: int,
-                        data: dict[str, np.ndarray], angles: tuple) -> int:
-        t = data["t"]
-        (last_end,) = db.execute("SELECT max(t_end) FROM segment").fetchone()
-        if last_end is not None and t[0] < last_end:
-            raise ValueError(
-                f"{self.path}: append_{phase}(step={step}): t starts at {float(t[0])!r} s, before the end of the "
-                f"last committed segment ({last_end!r} s); session time must not run backwards (a resumed run "
-                "continues the clock from SessionStore.last_time())")
-        cursor = db.execute(
-            "INSERT INTO segment (phase, step, attempt, t_start, t_end, n_rows, commanded_outer_deg,"
-            " commanded_inner_deg, measured_outer_deg, measured_inner_deg, written_utc)"
-            " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (phase, int(step), int(attempt), float(t[0]), float(t[-1]), int(t.size), *angles, _utc_now()))
-        seg = cursor.lastrowid
-        db.executemany("INSERT INTO array (segment_id, name, dtype, shape, data) VALUES (?, ?, ?, ?, ?)",
-                       [(seg, name, *arrays.encode(values)) for name, values in data.items()])
-        return seg
-
-
-def _why(exc: sqlite3.Error, path: Path | None = None) -> str:
-    """SQLite's message, with the cause a user can act on when it is a write that failed."""
-    text = str(exc)
-    code = getattr(exc, "sqlite_errorcode", None)
-    if "full" in text or code == sqlite3.SQLITE_FULL:
-        return f"{text} (the disk is full: free some space, then `rig resume`)"
-    if path is not None and code is not None and code & 0xFF == sqlite3.SQLITE_IOERR:
-        return f"{text} ({_write_failure(Path(path))})"
-    return text
-
-
-def _write_failure(path: Path) -> str:
-    """Why a write to the session folder failed: a file-size limit on this process (ulimit -f: EFBIG), a full
-    disk (sometimes said as an I/O error), or the disk itself."""
-    folder = path.parent
-    try:
-        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
-    except (AttributeError, OSError, ValueError):
-        limit = None
-    if limit is not None and limit != getattr(resource, "RLIM_INFINITY", -1):
-        sizes = [f.stat().st_size for f in folder.glob(path.name + "*") if f.is_file()]
-        if sizes and max(sizes) + 65536 >= limit:
-            return (f"this process may not write files over {limit} bytes (file-size limit, ulimit -f) and the "
-                    "session has reached it: raise the limit, then `rig resume`")
-    try:
-        free = shutil.disk_usage(folder).free
-    except OSError:
-        free = None
-    if free is not None and free < RESERVE_BYTES:
-        return f"the disk is full ({free} bytes free): free some space, then `rig resume`"
-    return "writing to the disk failed (removed, read-only or failing?); check it, then `rig resume`"
-
-
-def _remove_sqlite_files(path: Path) -> None:
-    for name in (path, path.with_name(path.name + "-wal"), path.with_name(path.name + "-shm")):
-        name.unlink(missing_ok=True)
-
-
-def _check_writable(folder: Path) -> None:
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise NotASession(f"{folder}: the folder is not writable")
-
-
-def _connect(path: Path, uri: str) -> sqlite3.Connection:
-    """Connection in autocommit mode (transactions are explicit), WAL journal, synchronous=FULL."""
-    try:
-        conn = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=BUSY_TIMEOUT_S)
-        mode = conn.execute("PRAGMA journal_mode=WAL").fetchone()[0]
-        conn.execute("PRAGMA synchronous=FULL")
-        conn.execute("PRAGMA foreign_keys=ON")
-    except sqlite3.DatabaseError as exc:
-        if not os.access(path.parent, os.W_OK):
-            raise NotASession(f"{path.parent}: the folder is not writable ({exc})") from exc
-        if isinstance(exc, sqlite3.OperationalError) and not path.exists():
-            raise SessionStoreError(f"{path}: cannot create the session file ({_why(exc, path)})") from exc
-        raise NotASession(f"{path}: not a readable SQLite session file ({exc})") from exc
-    if mode.lower() != "wal":
-        conn.close()
-        raise SessionStoreError(f"{path}: could not switch the journal to WAL (got {mode!r})")
-    return conn
-
-
-def _check_file(path: Path, conn: sqlite3.Connection) -> None:
-    try:
-        app_id = conn.execute("PRAGMA application_id").fetchone()[0]
-        version = conn.execute("PRAGMA user_version").fetchone()[0]
-        if app_id != APPLICATION_ID:
-            raise NotASession(f"{path}: an SQLite file but not a rig session (application_id {app_id:#x})")
-        if version > LAYOUT_VERSION:
-            raise NotASession(f"{path}: layout version {version} is newer than this rig reads ({LAYOUT_VERSION})")
-        problems = [row[0] for row in conn.execute("PRAGMA quick_check")]
-    except sqlite3.DatabaseError as exc:
-        raise SessionStoreError(f"{path}: corrupt session file ({exc})") from exc
-    if problems != ["ok"]:
-        raise SessionStoreError(f"{path}: corrupt session file: {'; '.join(problems[:3])}")
-
-
-def _encode_metadata(path: Path, values: dict) -> list[tuple[str, str, str]]:
-    now = _utc_now()
-    rows = []
-    for key, value in values.items():
-        try:
-            rows.append((key, json.dumps(value, default=_jsonable), now))
-        except TypeError as exc:
-            raise ValueError(f"{path}: metadata key {key!r} is not JSON-serialisable ({exc})") from exc
-    return rows
-
-
-def _jsonable(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, (Path, datetime)):
-        return str(value) if isinstance(value, Path) else value.isoformat()
-    raise TypeError(f"{type(value).__name__} is not JSON-serialisable")
-
-
-def _angle_pair(where: str, name: str, pair) -> tuple[float, float]:
-    values = tuple(float(v) for v in pair)
-    if len(values) != 2:
-        raise ValueError(f"{where}: {name} must be (outer_deg, inner_deg), got {pair!r}")
-    return values
-
-
-def _utc_now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+    def _transaction(self) -> AbstractContextManager[sqlite3.Connection]:
+        return transaction(self._db, self.path)

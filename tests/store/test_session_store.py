@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from synthetic_holds import hold_arrays, move_arrays
 
-from rig.store import SESSION_FILE, SessionStore, SessionStoreError
+from rig.store import SESSION_FILE, NotASession, SessionStore, SessionStoreError, schema
+from rig.store.sqlite_file import PARTIAL_SUFFIX
 
 N_STEPS = 4
 META = {"operator": "ana", "unit_serial": "BSN-0042", "gravity_mps2": 9.81, "field_uT": 48.5,
@@ -222,18 +223,16 @@ def test_a_create_stopped_part_way_leaves_no_session_file(tmp_path, monkeypatch)
     """A stop signal at start-up, while the session file was being set up, left an SQLite file without the
     session's identity: `rig resume` refused it as not a session, and so did `rig calibrate --out` (found by the
     fault campaign). The file is whole or not there."""
-    import rig.store.session_store as session_store
-
-    monkeypatch.setattr(session_store, "DDL", session_store.DDL + ";\nCREATE TABLE broken (")   # fails part way
+    monkeypatch.setattr(schema, "DDL", schema.DDL + ";\nCREATE TABLE broken (")   # fails part way
     with pytest.raises(SessionStoreError, match=SESSION_FILE):
         SessionStore.create(tmp_path, {"serial": "X"})
     assert sorted(p.name for p in tmp_path.iterdir()) == []
     monkeypatch.undo()
-    (tmp_path / (SESSION_FILE + session_store.PARTIAL_SUFFIX)).write_bytes(b"left by a killed create")
-    with pytest.raises(session_store.NotASession, match="no session.sqlite"):
+    (tmp_path / (SESSION_FILE + PARTIAL_SUFFIX)).write_bytes(b"left by a killed create")
+    with pytest.raises(NotASession, match="no session.sqlite"):
         SessionStore.open(tmp_path)
     with SessionStore.create(tmp_path, {"serial": "X"}) as store:
         assert store.metadata["serial"] == "X"
     with SessionStore.open(tmp_path) as store:
         assert store.metadata["status"] == "running"
-    assert not (tmp_path / (SESSION_FILE + session_store.PARTIAL_SUFFIX)).exists()
+    assert not (tmp_path / (SESSION_FILE + PARTIAL_SUFFIX)).exists()
