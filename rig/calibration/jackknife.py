@@ -17,19 +17,29 @@ import numpy as np
 
 def one_step_deletions(J: np.ndarray, r: np.ndarray, groups: list[np.ndarray]) -> np.ndarray | None:
     """The parameter change (m, p) of leaving out each group of rows; None where one cannot be left out (the
-    rest no longer determines every parameter)."""
+    rest no longer determines every parameter).
+
+    By the Woodbury identity `(A - J_i^T J_i)^-1 J_i^T r_i = A^-1 J_i^T (I - J_i A^-1 J_i^T)^-1 r_i`: one inverse
+    of A, then a small solve per group (all groups of one size at once); the group's leverage `J_i A^-1 J_i^T`
+    with an eigenvalue at 1 is a group the others cannot do without."""
     scale = np.linalg.norm(J, axis=0)
     scale[scale == 0] = 1.0
     Js = J / scale                                   # columns of very different size (B and H): keep the digits
-    A = Js.T @ Js
-    out = []
-    for rows in groups:
-        Ji = Js[rows]
-        rest = A - Ji.T @ Ji
-        if np.linalg.matrix_rank(rest, tol=1e-10 * np.linalg.norm(A, 2)) < A.shape[0]:
+    try:
+        A_inv = np.linalg.inv(Js.T @ Js)
+    except np.linalg.LinAlgError:
+        return None
+    out = np.zeros((len(groups), J.shape[1]))
+    for size in sorted({len(g) for g in groups}):
+        which = [k for k, g in enumerate(groups) if len(g) == size]
+        rows = np.array([groups[k] for k in which])                        # (m, size)
+        Ji = Js[rows]                                                      # (m, size, p)
+        rest = np.eye(size) - Ji @ A_inv @ np.swapaxes(Ji, 1, 2)           # I - leverage
+        if np.linalg.eigvalsh(0.5 * (rest + np.swapaxes(rest, 1, 2))).min() < 1e-10:
             return None
-        out.append(np.linalg.solve(rest, Ji.T @ r[rows]) / scale)
-    return np.array(out)
+        inner = np.linalg.solve(rest, r[rows][..., None])[..., 0]          # (m, size)
+        out[which] = np.einsum("pq,mkq,mk->mp", A_inv, Ji, inner)
+    return out / scale
 
 
 def jackknife_sd(deletions: np.ndarray) -> np.ndarray:
