@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import enum
 import math
+import os
 import re
 import signal
 
@@ -111,8 +112,9 @@ def command_error(exc: BaseException, prefix: str = "") -> CommandError:
     if isinstance(exc, OSError) and exc.strerror:
         return CommandError(prefix + (f"{exc.filename}: " if exc.filename else "") + exc.strerror, code_for(exc))
     message = plain(str(exc))
-    if prefix and message.startswith(prefix):          # the error already names the folder (session.source)
-        prefix = ""
+    folder = prefix.removesuffix(": ")
+    if prefix and (message.startswith(prefix) or message.startswith(folder + os.sep)):   # it names the folder
+        prefix = ""                                                                   # (session.source) or a file in it
     return CommandError(prefix + message, code_for(exc))
 
 

@@ -54,6 +54,7 @@ def test_a_static_segment_that_holds_a_motion_is_refused_naming_it(tmp_path, edi
     assert not (out / "calibration.json").exists()
     done = rig("discrepancy", str(folder), "--json", str(tmp_path / "d.json"))
     assert done.returncode == 2 and f"static segment '{name}'" in one_clear_line(done), done.stderr
+    assert done.stderr.count(str(folder)) == 1, done.stderr          # the file names the folder; not twice
 
 
 def test_a_gyro_in_counts_is_read_at_the_scale_of_the_recordings_turns(tmp_path):
