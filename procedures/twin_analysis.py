@@ -12,11 +12,10 @@ import numpy as np
 from procedures.twin_bands import band_chance, bands, default_replicas
 from procedures.twin_extension import Cause, family, outside, propose
 from procedures.twin_model import added_rate, heldout_change, model_causes
-from procedures.twin_replay import reconstruct, twin_view
+from procedures.twin_replay import poses_alone, reconstruct, twin_view
 from procedures.twin_replicas import Background, ReplicaJob, replica_runs
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.calibration.threads import one_blas_thread
-from rig.errors import CalibrationError
 from rig.noise.statistics import recording_statistics
 from rig.session_data import SessionData
 
@@ -40,9 +39,10 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     alone (which statistics it brings back). The held-out refits run beside them."""
     t0 = time.perf_counter()
     rec = calibrate_recording(session)
-    for sensor, why in rec.refused.items():     # the twin replays the motions at the calibrated gyro's rate
-        raise CalibrationError(f"{why} (the twin needs the {sensor}: `rig calibrate --from` writes the others)")
     view = twin_view(session, rec)
+    not_analysed = dict(rec.refused)           # a sensor that cannot be calibrated (the gyro of hand-held poses)
+    if not_analysed:
+        view = poses_alone(view, rec, set(not_analysed))
     rec = calibrate_recording(view)
     real = recording_statistics(view, rec)
     replay = reconstruct(view, rec)
@@ -91,6 +91,7 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
                               "named": sorted({c.effect for c in causes if name in c.brings_back}) or None}
                        for name in sorted(before) if name in real},
         "calibration": _calibration_summary(rec),
+        "not_analysed": not_analysed,
         "seconds": time.perf_counter() - t0,
     }
 

@@ -53,6 +53,18 @@ def twin_view(session: SessionData, rec: RecordingCalibration) -> SessionData:
     return view
 
 
+def poses_alone(view: SessionData, rec: RecordingCalibration, dropped: set[str]) -> SessionData:
+    """The view without the `dropped` sensors and with the others' samples on the static poses only: without a
+    calibrated gyro nothing replays the motions between poses, so neither the recording nor its replicas have them
+    (the replicas hold a pose's attitude until the next, and those rows are as empty as the recording's)."""
+    on_pose = np.zeros(len(view.t), dtype=bool)
+    for p in rec.poses:
+        on_pose[p.rows] = True
+    out = copy.copy(view)
+    out.raw = {s: np.where(on_pose[:, None], y, np.nan) for s, y in view.raw.items() if s not in dropped}
+    return out
+
+
 def pose_segments(session: SessionData, rec: RecordingCalibration) -> list[dict]:
     return [{"name": p.name, "t0": float(session.t[p.rows[0]]), "t1": float(session.t[p.rows[-1]]), "kind": "static"}
             for p in rec.poses]
@@ -67,8 +79,8 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
     out so that the twin, which adds the effect itself, does not replay it twice."""
     t = session.t
     n = len(t)
-    if "gyro" not in rec.sensors or "accel" not in rec.sensors:
-        raise CalibrationError("twin: the recording needs an accelerometer and a gyroscope")
+    if "accel" not in rec.sensors:
+        raise CalibrationError("twin: the recording needs an accelerometer")
     pose_of = np.full(n, -1)
     for k, p in enumerate(rec.poses):
         pose_of[p.rows] = k
@@ -92,6 +104,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
         env.field_uT = float(np.linalg.norm(m_world))
         env.dip_deg = float(np.degrees(np.arcsin(-m_world[2] / env.field_uT)))
         env.declination_deg = float(np.degrees(np.arctan2(m_world[0], m_world[1])))
+    gyro = rec.sensors.get("gyro")
     if session.temp_c is not None and np.isfinite(session.temp_c).all():
         env.temperature = lambda tt, tc=session.temp_c: np.interp(tt, t, tc)
     return Replay(t, ReplayedAttitude(RecordedAttitude(t, R, omega), t), sensors,
@@ -99,7 +112,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
-                  rec.sensors["gyro"].extra.get("carry_sd"), rec.sensors["gyro"].H,
+                  gyro.extra.get("carry_sd") if gyro else None, gyro.H if gyro else None,
                   printed_decimals(session, sensors), {name: noise_dof(session, name, rec) for name in sensors})
 
 
@@ -153,7 +166,10 @@ def _rate(session: SessionData, rec: RecordingCalibration) -> np.ndarray:
     """The calibrated gyro rate (rad/s), gaps filled, not smoothed: a moving mean over a hand motion of hundreds of
     deg/s changes the rotation it integrates to (a 5-sample mean moved imucal's SI turns by up to 0.03 deg and its
     carried gravity by up to 0.06 deg, each beyond the replicas' band), while the recording's own noise, replayed
-    with the motion, stays in it under any smoothing that keeps the motion's sum."""
+    with the motion, stays in it under any smoothing that keeps the motion's sum. Without a gyro, none: each pose's
+    attitude is held until the next (`poses_alone`)."""
+    if "gyro" not in rec.sensors:
+        return np.zeros((len(session.t), 3))
     return rec.sensors["gyro"].apply(filled(session.raw["gyro"]))
 
 

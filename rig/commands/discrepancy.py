@@ -121,7 +121,7 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
               "findings": findings,
               "candidates": [{"effect": c["effect"], "sensor": c["sensor"], "score": float(len(c["brings_back"])),
                               "significant": bool(c["brings_back"])} for c in twin["causes"]],
-              "unexplained": twin["unexplained"], "not_analysed": [], "twin": twin}
+              "unexplained": twin["unexplained"], "not_analysed": sorted(twin["not_analysed"]), "twin": twin}
     files = []
     try:
         json_out.parent.mkdir(parents=True, exist_ok=True)
@@ -156,6 +156,11 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     if twin["unexplained"]:
         click.echo(f"unexplained: {len(twin['unexplained'])} statistics stay outside the band (listed in {json_out})")
     click.echo(f"wrote {json_out}" + (f" and {len(files)} plots in {report_dir}" if files else ""))
+    for sensor, why in twin["not_analysed"].items():
+        click.echo(f"NOT analysed: {sensor}: {plain(why)}; the twin replays the poses alone, without the motions "
+                   f"between them, and the result covers {', '.join(twin['calibration'])} only", err=True)
+    if twin["not_analysed"]:
+        sys.exit(Exit.FAIL)
 
 
 def twin_markdown(report: dict, files: list[Path]) -> str:
@@ -173,6 +178,9 @@ def twin_markdown(report: dict, files: list[Path]) -> str:
              "| --- | --- | --- | --- |"]
     lines += [f"| {c['effect']} | {c['sensor']} | {c['magnitude']:.4g} {c['unit']} | {len(c['brings_back'])} |"
               for c in twin["causes"]] or ["| none | | | |"]
+    for sensor, why in twin["not_analysed"].items():
+        lines += ["", f"**Not analysed: {sensor}**: {plain(why)}; nothing is claimed about it, and the twin replays "
+                  "the poses alone."]
     lines += ["", f"## Unexplained ({len(twin['unexplained'])})", ""]
     lines += [f"- {name}" for name in twin["unexplained"]] or ["- none"]
     lines += ["", "## Plots", ""] + [f"![{f.stem}]({f.name})" for f in files]

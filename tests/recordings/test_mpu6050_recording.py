@@ -2,7 +2,8 @@
 (`tests/data/mpu6050-tomisuarez2`, PROVENANCE.md), run as a user would, beside the parameters its authors
 published for it. Four things of it were each refused before any fit (a preamble above the header, a 36.5 s
 initial rest, ten poses, a gyro rail reached by two samples); its gyro cannot be calibrated from it (poses the gyro
-sees turning, motions clipped), which imu_tk's own method held out confirms (README, "Beside the peers")."""
+sees turning, motions clipped), which imu_tk's own method held out confirms (README, "Beside the peers"), and its
+twin is the accelerometer's alone."""
 
 from __future__ import annotations
 
@@ -54,5 +55,14 @@ def test_the_mpu6050_session_imports_calibrates_its_accelerometer_and_names_why_
     assert abs(H[0, 1] - published_accel()[1][0, 1]) < 2 * H_std[0, 1], (H[0, 1], H_std[0, 1])
     assert any("1 degree(s) of freedom" in w for w in accel["warnings"]), accel["warnings"]
 
+    # The twin of the accelerometer alone: the poses replayed without the motions the gyro cannot give; the gyro
+    # named as not analysed (exit 1, as calibrate's), in the report and its one line, with calibrate's reason.
     done = rig("discrepancy", str(tmp_path / "s"), "--json", str(tmp_path / "d.json"), "--replicas", "10")
-    assert done.returncode == 3 and "the twin needs the gyro" in one_clear_line(done), done.stderr
+    assert done.returncode == 1, (done.returncode, done.stdout[-500:], done.stderr)
+    line = one_clear_line(done)
+    assert line.startswith("NOT analysed: gyro:") and "stay still for the gyro" in line, line
+    report = json.loads((tmp_path / "d.json").read_text())
+    assert report["not_analysed"] == ["gyro"] and set(report["twin"]["calibration"]) == {"accel"}
+    families = {s["family"] for s in report["twin"]["statistics"].values()}
+    assert families and all(f.startswith("accel.") for f in families), families
+    assert {"accel.spread", "accel.norm_residual", "accel.loo_scatter_to_predicted"} <= families, families
