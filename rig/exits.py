@@ -112,9 +112,9 @@ def command_error(exc: BaseException, prefix: str = "") -> CommandError:
     if isinstance(exc, OSError) and exc.strerror:
         return CommandError(prefix + (f"{exc.filename}: " if exc.filename else "") + exc.strerror, code_for(exc))
     message = plain(str(exc))
-    folder = prefix.removesuffix(": ")
-    if prefix and (message.startswith(prefix) or message.startswith(folder + os.sep)):   # it names the folder
-        prefix = ""                                                                   # (session.source) or a file in it
+    names_it = message.startswith(prefix) or message.startswith(prefix.removesuffix(": ") + os.sep)
+    if prefix and names_it:                            # the error names the folder (session.source) or a file in it
+        prefix = ""
     return CommandError(prefix + message, code_for(exc))
 
 
