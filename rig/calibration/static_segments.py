@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.calibration.gyro_still import window_means
+from rig.calibration.recording_gyro import summed_rate
 from rig.calibration.segments import Pose, Turn
 from rig.calibration.static_detect import window_samples
 from rig.errors import InputError
@@ -35,15 +35,16 @@ def check_static_segments(session: SessionData, poses: list[Pose], turns: list[T
 
     Every window's mean comes from one running sum per sensor (a pose's rows are contiguous): the check runs on every
     calibration, the twin's replicas' too (6 ms for the Xsens's 38 poses, where a median per pose took 13)."""
-    win = window_samples(session.t, WINDOW_S)
-    gyro_deg = _gyro_degrees_per_unit(session, poses, turns)
-    sums = {s: _running_sums(session.raw[s]) for s in ("accel", "gyro")
-            if s in session.raw and (s == "accel" or gyro_deg is not None)}
-    if not sums or not poses:
+    if not poses:
         return
-    bias = None
+    win = window_samples(session.t, WINDOW_S)
+    sums = {s: _running_sums(session.raw[s]) for s in ("accel", "gyro") if s in session.raw}
+    gyro_deg = bias = None
     if "gyro" in sums:                   # the median of the poses' mean rates: a pose that holds a turn moves its own
         bias = np.median([_mean(sums["gyro"], p.rows[0], p.rows[-1] + 1) for p in poses], axis=0)
+        gyro_deg = _gyro_degrees_per_unit(session, turns, bias)
+    if gyro_deg is None:
+        sums.pop("gyro", None)
     for pose in poses:
         a, b = int(pose.rows[0]), int(pose.rows[-1]) + 1
         if b - a < win:
@@ -53,7 +54,7 @@ def check_static_segments(session: SessionData, poses: list[Pose], turns: list[T
             means, u = _window_means(sums["accel"], a, b, win), _mean(sums["accel"], a, b)
             cos = means @ u / np.maximum(np.linalg.norm(means, axis=1) * np.linalg.norm(u), 1e-300)
             turned = np.fmax(turned, np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
-        if bias is not None:
+        if "gyro" in sums:
             rate = np.linalg.norm(_window_means(sums["gyro"], a, b, win) - bias, axis=1)
             turned = np.fmax(turned, rate * gyro_deg * WINDOW_S)
         if turned.max() > TURN_LIMIT_DEG:
@@ -87,22 +88,12 @@ def _refuse(session: SessionData, pose: Pose, t: np.ndarray, turned: np.ndarray)
                      f"than {TURN_LIMIT_DEG:g} deg. Its t0 and t1 must leave out the turns and the motions between poses")
 
 
-def _gyro_degrees_per_unit(session: SessionData, poses: list[Pose], turns: list[Turn]) -> float | None:
+def _gyro_degrees_per_unit(session: SessionData, turns: list[Turn], bias: np.ndarray) -> float | None:
     """Degrees per unit of the raw gyro: its unit's, or for counts the turns' known angles over their summed
-    counts (None without a gyro, or in counts without a turn)."""
-    if "gyro" not in session.raw:
-        return None
+    counts (None in counts without a turn)."""
     unit = (session.meta.get("units") or {}).get("gyro")
     if unit in DEG_PER:
         return DEG_PER[unit]
-    if not turns or not poses:
-        return None
-    y = session.raw["gyro"]
-    bias = np.nanmedian(y[np.concatenate([p.rows for p in poses])], axis=0)
-    ratios = []
-    for turn in turns:
-        rows = turn.rows[~np.isnan(y[turn.rows]).any(axis=1)]
-        summed = ((y[rows[:-1]] - bias) * np.diff(session.t[rows])[:, None]).sum(axis=0)
-        if np.linalg.norm(summed) > 0:
-            ratios.append(abs(np.degrees(turn.angle_rad)) / np.linalg.norm(summed))
+    summed = [np.linalg.norm(summed_rate(session, turn.rows, bias)) for turn in turns]
+    ratios = [abs(np.degrees(turn.angle_rad)) / m for turn, m in zip(turns, summed) if m > 0]
     return float(np.median(ratios)) if ratios else None
