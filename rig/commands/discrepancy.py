@@ -168,7 +168,8 @@ def twin_markdown(report: dict, files: list[Path]) -> str:
     s = twin["summary"]
     n = s["statistics"]
     lines = [f"# {report['session']} against its simulated twin", "",
-             f"{twin['replicas']} replicas: the recording's poses and motions replayed in the simulated world with its "
+             f"{twin['replicas']} replicas: the recording's "
+             f"{'poses alone' if twin['not_analysed'] else 'poses and motions'} replayed in the simulated world with its "
              "own calibration and noise; a statistic outside the replicas' 1-99 % band is something the simulation "
              "gets wrong.", "",
              "| | inside the band |", "| --- | --- |",
