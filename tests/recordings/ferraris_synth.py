@@ -46,11 +46,14 @@ def attitude_with_up(up: np.ndarray) -> np.ndarray:
 def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, turn_err_deg: float = 1.5,
              wobble_deg: float = 1.0, accel_noise: float = 1.0, gyro_noise: float = 1.0,
              face_s: float = 5.0, move_s: float = 2.0, shake_deg: float = 0.0,
-             shake_hz: float = 2.0, mag_per_uT: float | None = None) -> tuple[SessionData, Truth]:
+             shake_hz: float = 2.0, mag_per_uT: float | None = None,
+             motion_scale_sd: float = 0.0) -> tuple[SessionData, Truth]:
     """`shake_deg`: the motions between faces also swing by up to this angle about an axis that turns round at
     `shake_hz` (a hand's motion, whose rate axis never stays put), starting and ending still. `mag_per_uT`: add a
     magnetometer in these raw units per uT (`mag_synth`; 1.0 for a column in uT), drawn after everything else so
-    the accelerometer and gyro are those of the same seed without it."""
+    the accelerometer and gyro are those of the same seed without it. `motion_scale_sd`: the gyro reads each motion
+    between faces at its own scale, off by a fraction of this standard deviation (a fast flip's angle comes out
+    wrong, its axis does not), drawn from a stream of its own so the rest of the seed is unchanged."""
     rng = np.random.default_rng(seed)
     accel_H = (np.eye(3) + np.diag(rng.uniform(-0.03, 0.03, 3)) + rng.uniform(-0.01, 0.01, (3, 3)) * (1 - np.eye(3))) \
         * (G / 2048.0)
@@ -106,17 +109,19 @@ def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, tu
         t_now += n * dt
         return Rs[-1]
 
-    R = None
+    R, motions = None, []
     for name, up in FACES.items():
         tilt = axis_angle_matrix(_unit(rng.normal(size=3)), np.radians(tilt_deg) * abs(rng.normal()))
         target = tilt @ attitude_with_up(np.array(up, float))
         tilts.append(np.degrees(np.arccos(np.clip((target.T @ [0, 0, 1.0]) @ np.array(up, float), -1, 1))))
         if R is not None:
             v = rotvec_from_matrix(R.T @ target)
+            start = len(ws)
             if shake_deg:
                 shaken_turn(R, v, move_s)
             else:
                 turn(R, v / np.linalg.norm(v), np.linalg.norm(v), move_s)
+            motions.append(slice(start, len(ws)))
         R = target
         hold(R, face_s, name, ("+" if max(up) > 0 else "-") + "xyz"[int(np.argmax(np.abs(up)))])
     turn_angles = []
@@ -132,10 +137,13 @@ def generate(seed: int = 0, *, rate_hz: float = 100.0, tilt_deg: float = 1.5, tu
         hold(R, 2.0, f"rest_{k}", None)
         segments.pop()
     Rs, ws = np.array(Rs), np.array(ws)
+    read = ws.copy()
+    for rows, off in zip(motions, np.random.default_rng([seed, 1]).normal(0.0, motion_scale_sd, len(motions))):
+        read[rows] *= 1.0 + off
     t = np.arange(len(Rs)) * dt
     f = np.einsum("nji,j->ni", Rs, np.array([0.0, 0.0, G]))
     accel = np.round(f @ np.linalg.inv(accel_H).T + accel_B + rng.normal(0, accel_noise, f.shape))
-    gyro = np.round(ws @ np.linalg.inv(gyro_H).T + gyro_B + rng.normal(0, gyro_noise, ws.shape))
+    gyro = np.round(read @ np.linalg.inv(gyro_H).T + gyro_B + rng.normal(0, gyro_noise, ws.shape))
     raw, units, mag = {"accel": accel, "gyro": gyro}, {"accel": "counts", "gyro": "counts"}, None
     if mag_per_uT is not None:
         mag = mag_truth(rng, per_uT=mag_per_uT)
