@@ -109,7 +109,7 @@ def _one_replica(task: tuple[int, int]) -> dict | None:
     job = _JOBS[j]
     rep = replica(job.replay, seed, job.effects_for(seed), job.quiet)
     try:
-        return recording_statistics(rep, calibrate_recording(rep, carry_sd=job.replay.carry_sd,
+        return recording_statistics(rep, calibrate_recording(rep, carry=job.replay.carry,
                                                              gyro_start=job.replay.gyro_start))
     except CalibrationError:
         return None

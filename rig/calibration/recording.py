@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.g_sensitivity import with_g_sensitivity
 from rig.calibration.recording_checks import (
     check_no_stuck_axis,
@@ -49,29 +50,29 @@ class RecordingCalibration:
 
 
 def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
-                        carry_sd: float | None = None, gyro_start: np.ndarray | None = None,
+                        carry: CarryWeight | None = None, gyro_start: np.ndarray | None = None,
                         g_sensitivity: bool = False) -> RecordingCalibration:
     """Accelerometer (and magnetometer) from the static poses, gyroscope from turns and motions between poses.
 
     leave_out: {"poses": [i, ...], "turns": [k, ...], "carries": [c, ...]} not used in the fit.
-    carry_sd: how far a hand motion's carried gravity is trusted; None: chosen by cross-validation where turns
+    carry: how far a hand motion's carried gravity is trusted; None: chosen by cross-validation where turns
     say it too (the twin's replicas take the recording's choice rather than choosing again).
     gyro_start: where the gyro's fit starts instead of its own coarse search (a twin's replica starts at its
     recording's H: the same optimum, to 1e-10, in a third less time).
     g_sensitivity: take the gyro's g-sensitivity into its calibration where the poses show it
     (`rig.calibration.g_sensitivity`; what `rig calibrate` writes). The twin keeps the linear model, and names it.
     """
-    rec = _calibrate_linear(session, leave_out, carry_sd, gyro_start)
+    rec = _calibrate_linear(session, leave_out, carry, gyro_start)
     if g_sensitivity and "gyro" in rec.sensors:
         left = set((leave_out or {}).get("poses", ()))
         gyro = with_g_sensitivity(session, rec.sensors, [p.rows for i, p in enumerate(rec.poses) if i not in left],
-                                  lambda s: _calibrate_linear(s, leave_out, carry_sd, gyro_start).sensors["gyro"])
+                                  lambda s: _calibrate_linear(s, leave_out, carry, gyro_start).sensors["gyro"])
         if gyro is not None:
             rec.sensors["gyro"] = gyro
     return rec
 
 
-def _calibrate_linear(session: SessionData, leave_out: dict | None, carry_sd: float | None,
+def _calibrate_linear(session: SessionData, leave_out: dict | None, carry: CarryWeight | None,
                       gyro_start: np.ndarray | None) -> RecordingCalibration:
     check_no_stuck_axis(session)
     poses, turns = segments_of(session)
@@ -94,7 +95,7 @@ def _calibrate_linear(session: SessionData, leave_out: dict | None, carry_sd: fl
         warnings += [w for w, _ in clipped]
         with refused_for_saturation(session, [why for _, why in clipped]):
             sensors["gyro"], used = fit_gyro(session, sensors["accel"], poses, turns, carries, leave_out,
-                                             carry_sd, gyro_start)
+                                             carry, gyro_start)
         if not used["turns"] and not used["carries"]:
             warnings.append("gyro: no turn of known angle and no whole motion between poses")
     if "mag" in session.raw:

@@ -12,13 +12,15 @@ about a sensor axis (imucal's Ferraris turns) gives `H m_k = theta_k a_k` with `
 component along the axis to within the turn's `angle_deg_sd`, the components across it to within the angle
 times the face tilt (a hand turn's axis wanders as a face does). A motion between two static poses carries the
 gravity direction of one onto the other (imu_tk's criterion, `R^T g_0 = g_1`), which fixes what turns leave
-open. Both enter one weighted least-squares fit.
+open. Both enter one weighted least-squares fit; a motion's miss is weighed along its axis and across it apart
+(`carry_weight`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from rig.calibration.carry_weight import PRIOR, CarryWeight, angle_directions, weighted_miss
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats
 from rig.calibration.jackknife import one_step_deletions, scatter_to_stated
 from rig.calibration.levenberg import minimise
@@ -28,9 +30,6 @@ from rig.session_data import MoveStream
 AXIS_VECTORS = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0), "+z": (0, 0, 1),
                 "-z": (0, 0, -1)}
 MEAN_SE_FLOOR = 1e-4          # relative to the norm: the least a pose mean is trusted to (model error)
-CARRY_SD = 0.005              # unit-vector components: gravity carried across a motion by hand (0.3 deg)
-CARRY_SD_CHOICES = (0.005, 0.01, 0.02, 0.05, 0.1)   # the weights cross-validation chooses among (0.3 to 6 deg)
-CV_GAIN = 0.5                 # another weight only where it halves the left-out errors (few pieces: a noisy choice)
 START_STRIDE = 8              # the start's coarse scale search integrates every 8th sample
 # The gyro fit's Jacobian (H over its mean scale, entries about 1) is not taken again for a step smaller than this:
 # from a start at the recording's H a replica's fit steps 4e-4, then 2e-6 and 3e-9, and the Jacobian changes by
@@ -127,11 +126,12 @@ def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_
 
 def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, float, float, float]],
                       carries: list[tuple[MoveStream, np.ndarray, np.ndarray]], H0: np.ndarray | None = None,
-                      carry_sd: float = CARRY_SD) -> tuple[np.ndarray, np.ndarray, dict]:
+                      carry: CarryWeight = PRIOR) -> tuple[np.ndarray, np.ndarray, dict]:
     """H and its covariance from turns [(m_k summed raw rate * dt (3,), nominal axis (3,), angle rad, angle sd rad,
-    axis sd rad)] and motions carrying gravity [(raw stream, g_start unit, g_end unit)], each carried component
-    trusted to `carry_sd`. The covariance is scaled by the residuals' chi-square per degree of freedom: at least 1
-    under the default weight (the prior's), as it comes under a weight the data chose (`carry_sd_by_cross_validation`).
+    axis sd rad)] and motions carrying gravity [(raw stream, g_start unit, g_end unit)], each motion's miss trusted
+    as `carry` says (along its angle directions at H0). The covariance is the scatter the residuals show
+    (`scattered_cov`): at least the stated under the prior weight, as it comes under a weight the data chose
+    (`carry_choice.carry_weight_by_cross_validation`).
     info's `loo_scatter_to_predicted`: the scatter of H over leave-one-turn-or-motion-out refits against the
     deviation this covariance states (`jackknife`; None where a piece cannot be left out)."""
     if not turns and not carries:
@@ -153,6 +153,7 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
     angles = np.array([t[2] for t in turns])
     along_sd = np.array([t[3] for t in turns])
     across_sd = np.array([abs(t[2]) * t[4] for t in turns])
+    angle_dirs = angle_directions(integrated_quats(H0, ms), g1) if ms is not None and not carry.isotropic else None
 
     def stacked(X: np.ndarray) -> np.ndarray:
         """Residuals of a stack of H (n, 3, 3) -> (n, m): turns first, then the carried gravity."""
@@ -164,7 +165,7 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
             parts += [((along - angles) / along_sd), (across / across_sd[:, None]).reshape(len(X), -1)]
         if ms is not None:
             q = integrated_quats(X, ms)
-            parts.append(((_rotate_inverse(q, g0) - g1) / carry_sd).reshape(len(X), -1))
+            parts.append(weighted_miss(_rotate_inverse(q, g0) - g1, angle_dirs, carry).reshape(len(X), -1))
         return np.concatenate(parts, axis=1)
 
     last: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -192,10 +193,9 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
     res = minimise(fun, jac, (H0 / scale).ravel(), tol=1e-13, max_nfev=400)
     H = res.x.reshape(3, 3) * scale
     J = res.jac
-    dof = max(J.shape[0] - 9, 1)
-    chi2 = float(res.fun @ res.fun) / dof
-    cov = np.linalg.pinv(J.T @ J) * (chi2 if carry_sd != CARRY_SD else max(chi2, 1.0)) * scale * scale
     n_turns = len(M)
+    kinds = [slice(0, n_turns), slice(n_turns, 4 * n_turns), slice(4 * n_turns, len(res.fun))]
+    cov = scattered_cov(J, res.fun, kinds, floor=carry == PRIOR) * scale * scale
     groups = [np.r_[k, n_turns + 3 * k:n_turns + 3 * k + 3] for k in range(n_turns)] + \
              [4 * n_turns + np.arange(3 * c, 3 * c + 3) for c in range(len(carries))]
     scatter = scatter_to_stated(one_step_deletions(J, res.fun, groups), np.sqrt(np.diag(cov)) / scale)
@@ -203,36 +203,22 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
                     "moveset": ms, "loo_scatter_to_predicted": scatter}
 
 
-def carry_sd_by_cross_validation(B: np.ndarray, turns: list, carries: list, H0: np.ndarray) -> float:
-    """How far to trust gravity carried by hand across a motion, where turns of known angle say it too: the weight
-    of CARRY_SD_CHOICES whose fits best predict each turn and each motion left out of them (squared angle errors
-    summed), kept only where it halves them against CARRY_SD. A careful hand keeps the tight weight; imucal's SI
-    session's hand motions do not (bench_recordings: its left-out turn error falls from 6.1 to 0.9 deg)."""
-    best, best_cost = CARRY_SD, np.inf
-    costs = {}
-    for sd in CARRY_SD_CHOICES:
-        cost = 0.0
-        for k in range(len(turns) + len(carries)):
-            kept_turns = [t for i, t in enumerate(turns) if i != k]
-            kept_carries = [c for i, c in enumerate(carries) if i != k - len(turns)]
-            try:
-                H, _, info = gyro_rotation_fit(B, kept_turns, kept_carries, H0=H0, carry_sd=sd)
-            except CalibrationError:
-                cost = np.inf
-                break
-            if info["rank"] < 9:
-                cost = np.inf
-                break
-            if k < len(turns):
-                m, axis, angle, *_ = turns[k]
-                cost += (turn_angle(H, m, axis) - angle) ** 2
-            else:
-                stream, g0, g1 = carries[k - len(turns)]
-                cost += float(carried_errors(H, B, [stream], g0[None], g1[None])[0]) ** 2
-        costs[sd] = cost
-        if cost < best_cost:
-            best, best_cost = sd, cost
-    return best if best_cost < CV_GAIN * costs[CARRY_SD] else CARRY_SD
+def scattered_cov(J: np.ndarray, r: np.ndarray, kinds: list[slice], floor: bool) -> np.ndarray:
+    """The covariance of a weighted least-squares fit (Jacobian J and residuals r in standard deviations) under the
+    scatter its residuals show, kind by kind (turn angles, turn axes, motions): the sandwich A^-1 J^T S J A^-1 with
+    A = J^T J and S each kind's chi-square per degree of freedom (its rows less their leverage). A kind whose
+    residuals the fit absorbs (three turns fix three scales exactly once the motions' angles are let go) shows no
+    scatter, and keeps the deviation its segments state rather than taking the others' `chi-square`. `floor`: no
+    kind is trusted beyond its stated deviation (the prior weight, which nothing chose from the data)."""
+    inv = np.linalg.pinv(J.T @ J)
+    leverage = np.einsum("ij,jk,ik->i", J, inv, J)
+    variance = np.ones(len(r))
+    for rows in kinds:
+        dof = (rows.stop - rows.start) - float(leverage[rows].sum())
+        if dof > 0.5:
+            chi2 = float(r[rows] @ r[rows]) / dof
+            variance[rows] = max(chi2, 1.0) if floor else chi2
+    return inv @ (J.T * variance) @ J @ inv
 
 
 def turn_angle(H: np.ndarray, m: np.ndarray, axis: np.ndarray) -> float:

@@ -6,13 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.recording_fits import (
-    CARRY_SD,
-    carried_errors,
-    carry_sd_by_cross_validation,
-    gyro_rotation_fit,
-    turn_angle,
-)
+from rig.calibration.carry_choice import carry_weight_by_cross_validation
+from rig.calibration.carry_weight import PRIOR, CarryWeight
+from rig.calibration.recording_fits import carried_errors, gyro_rotation_fit, turn_angle
 from rig.calibration.recording_vector import gravity_directions
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import Pose, Turn
@@ -39,7 +35,7 @@ def whole_carries(session: SessionData, poses: list[Pose]) -> list[tuple[int, in
 
 def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list[Turn],
               carries: list[tuple[int, int]], leave_out: dict,
-             carry_sd: float | None = None, H0: np.ndarray | None = None) -> tuple[TriadCalibration, dict]:
+             carry: CarryWeight | None = None, H0: np.ndarray | None = None) -> tuple[TriadCalibration, dict]:
     y = session.raw["gyro"]
     stills = np.concatenate([p.rows for p in poses])
     still = y[stills]
@@ -53,12 +49,12 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
     streams = [motion(session, poses[i], poses[j]) for i, j in carries]
     carry_terms = [(streams[c], g[i], g[j]) for c, (i, j) in enumerate(carries) if c not in skip_carries]
     H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms, H0=H0)
-    if carry_sd is None:
-        carry_sd = CARRY_SD
+    if carry is None:
+        carry = PRIOR
         if turn_terms and carry_terms and info["rank"] == 9:
-            carry_sd = carry_sd_by_cross_validation(B, turn_terms, carry_terms, H)
-    if carry_sd != CARRY_SD:
-        H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms, H0=H, carry_sd=carry_sd)
+            carry = carry_weight_by_cross_validation(B, turn_terms, carry_terms, H)
+    if carry != PRIOR:
+        H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms, H0=H, carry=carry)
     if info["rank"] < 9:
         raise CalibrationError(f"gyro: the turns and motions left in the fit determine only {info['rank']} of H's 9 "
                                "entries")
@@ -78,7 +74,8 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
         extra={"turns": [t.name for t in turns], "turn_angle_error_deg": angle_err,
                "carries": [[poses[i].name, poses[j].name] for i, j in carries], "carry_error_deg": carry_err,
                "residual_unit": "rad (turn angles, carried gravity)",
-               "carry_sd": carry_sd if carries else None,
+               "carry_sd": carry.across_sd if carries else None,
+               "carry_angle_sd": carry.along_sd if carries else None,
                "loo_scatter_to_predicted": info["loo_scatter_to_predicted"]})
     return cal, {"turns": len(turn_terms), "carries": len(carry_terms)}
 

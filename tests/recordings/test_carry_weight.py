@@ -1,0 +1,70 @@
+"""A hand motion's carried gravity weighed along its angle and across its axis apart (`rig.calibration.carry_weight`):
+where the gyro reads each flip at a scale of its own, the turns of known angle keep the scale and the motions still
+fix the axes."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ferraris_synth import generate  # noqa: E402
+
+from rig.calibration.carry_weight import CarryWeight, angle_directions, weighted_miss  # noqa: E402
+from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.rotations import axis_angle_matrix  # noqa: E402
+
+CAREFUL = dict(turn_err_deg=0.3, wobble_deg=0.3, tilt_deg=0.3)
+
+
+def _quat(axis: np.ndarray, angle: float) -> np.ndarray:
+    return np.r_[np.cos(angle / 2), np.sin(angle / 2) * axis]
+
+
+def test_an_error_in_a_motions_angle_moves_the_carried_gravity_along_the_direction_named():
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        g0 = rng.normal(size=3)
+        g0 /= np.linalg.norm(g0)
+        angle = rng.uniform(0.5, 3.0)
+        g1 = axis_angle_matrix(axis, angle).T @ g0                      # gravity in the end's frame
+        if np.linalg.norm(np.cross(axis, g1)) < 0.4:
+            continue
+        direction = angle_directions(_quat(axis, angle)[None], g1[None])[0]
+        longer = axis_angle_matrix(axis, angle + 1e-5).T @ g0 - g1
+        assert np.linalg.norm(np.cross(longer, direction)) < 1e-3 * np.linalg.norm(longer)
+        assert abs(np.linalg.norm(direction) - 1) < 1e-12 and abs(direction @ g1) < 1e-12
+    upright = angle_directions(_quat(np.array([0.0, 0.0, 1.0]), 1.0)[None], np.array([[0.0, 0.05, 1.0]]))
+    assert np.all(upright == 0), "a turn about the vertical: its angle is not weighed apart"
+
+
+def test_the_miss_along_the_angle_is_weighed_at_its_own_deviation():
+    direction = np.array([[1.0, 0.0, 0.0]])
+    miss = np.array([[[0.02, 0.01, 0.0]]])
+    assert np.allclose(weighted_miss(miss, direction, CarryWeight(0.01, 0.04)), [[[0.5, 1.0, 0.0]]])
+    assert np.allclose(weighted_miss(miss, direction, CarryWeight(0.01, 0.01)), miss / 0.01)
+
+
+def _h_error(seed: int, scale_sd: float) -> tuple[float, CarryWeight]:
+    session, truth = generate(seed, motion_scale_sd=scale_sd, **CAREFUL)
+    gyro = calibrate_recording(session).sensors["gyro"]
+    weight = CarryWeight(gyro.extra["carry_sd"], gyro.extra["carry_angle_sd"])
+    return float(np.abs(gyro.H @ np.linalg.inv(truth.gyro_H) - np.eye(3)).max()), weight
+
+
+def test_flips_read_each_at_a_scale_of_its_own_leave_the_gyro_where_the_turns_put_it():
+    """Careful faces and turns, motions whose angles the gyro misreads by 1 % (sd), eight seeds: one weight for the
+    whole miss put H 1.5 % off on average and 4.1 % at worst (measured); the angle weighed apart keeps it at the
+    0.5 % the same sessions give with exact motions."""
+    errors, weights = zip(*(_h_error(seed, 0.01) for seed in range(8)))
+    assert np.mean(errors) < 0.009 and max(errors) < 0.02, errors
+    assert sum(w.along_sd > w.across_sd for w in weights) >= 6, weights
+
+
+def test_exact_motions_lose_nothing_to_the_choice():
+    errors, _ = zip(*(_h_error(seed, 0.0) for seed in range(8)))
+    assert np.mean(errors) < 0.006, errors
