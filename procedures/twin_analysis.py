@@ -43,7 +43,8 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     not_analysed = dict(rec.refused)           # a sensor that cannot be calibrated (the gyro of hand-held poses)
     if not_analysed:
         view = poses_alone(view, rec, set(not_analysed))
-    rec = calibrate_recording(view)
+    if view is not session:                    # the poses it found, now named; or a sensor left out
+        rec = calibrate_recording(view)
     real = recording_statistics(view, rec)
     replay = reconstruct(view, rec)
     seeds = list(range(seed * 10_000, seed * 10_000 + replicas))
