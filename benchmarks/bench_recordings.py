@@ -33,7 +33,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT)]
 
-from rig.calibration.heldout import carry_error_deg, heldout_scores, score_series, scoring_layout  # noqa: E402
+from rig.calibration.carry_weight import angle_directions  # noqa: E402
+from rig.calibration.gyro import MoveSet, integrated_quats  # noqa: E402
+from rig.calibration.heldout import carry_error_deg, heldout_scores, score_series, scoring_layout, series  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.calibration.recording_fits import gyro_rotation_fit  # noqa: E402
 from rig.calibration.recording_gyro import motion  # noqa: E402
@@ -42,6 +44,8 @@ from rig.calibration.static_detect import initial_interval  # noqa: E402
 from rig.io.import_csv import import_csv  # noqa: E402
 from rig.io.import_ferraris import import_ferraris  # noqa: E402
 from rig.io.import_imu_tk import import_imu_tk  # noqa: E402
+from rig.rotations import axis_angle_matrix  # noqa: E402
+from rig.session_data import MoveStream  # noqa: E402
 
 IMUCAL_GRAVITY = 9.81
 XSENS_GRAVITY = 9.81744
@@ -155,6 +159,30 @@ def imu_tk_method_carries(laid, full) -> list[float]:
     return out
 
 
+def carry_split_deg(laid, full, cal: dict[str, np.ndarray]) -> dict | None:
+    """RMS over the motions of the carried gravity's miss along each motion's angle direction and across it (deg)
+    under a fixed calibration's series: the two parts the gyro fit weighs apart (`carry_weight`)."""
+    if not full.carries or "gyro" not in cal:
+        return None
+    along, across = [], []
+    for i, j in full.carries:
+        a, b = full.poses[i], full.poses[j]
+        g0, g1 = (np.nanmean(cal["accel"][p.rows], axis=0) for p in (a, b))
+        g0, g1 = g0 / np.linalg.norm(g0), g1 / np.linalg.norm(g1)
+        idx = np.arange(a.rows[-1], b.rows[0] + 1)
+        w = cal["gyro"][idx]
+        ok = ~np.isnan(w).any(axis=1)
+        q = integrated_quats(np.eye(3), MoveSet.build([MoveStream(0, laid.t[idx][ok], w[ok], np.eye(3), np.eye(3))],
+                                                      np.zeros(3)))
+        angle = 2.0 * np.arctan2(np.linalg.norm(q[0, 1:]), q[0, 0])
+        miss = axis_angle_matrix(q[0, 1:] / np.linalg.norm(q[0, 1:]), angle).T @ g0 - g1
+        direction = angle_directions(q, g1[None])[0]
+        along.append(float(miss @ direction))
+        across.append(float(np.linalg.norm(miss - (miss @ direction) * direction)))
+    rms = lambda v: float(np.degrees(np.sqrt(np.mean(np.square(v)))))     # noqa: E731
+    return {"along_rms": rms(along), "across_rms": rms(across), "along_deg": np.degrees(along).round(3).tolist()}
+
+
 def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer_heldout: set[str],
             peer_method_heldout=None) -> dict:
     """peer_heldout: the scores whose pieces the peer's fit never saw; peer_method_heldout(laid, full) -> {score:
@@ -190,8 +218,11 @@ def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer
             if row["ours_heldout"] is not None:
                 row["ours_no_worse_than_peer_method_heldout"] = bool(row["ours_heldout"] <= row["peer_method_heldout"])
         peer_time_s = peer_time_s, round(time.perf_counter() - t0, 2)
+    split = {"ours_in_sample": carry_split_deg(laid, full, series(laid, full.sensors)),
+             "peer": carry_split_deg(laid, full, peer_series(laid))}
     return {"recording": name, "rows_of_data": int(len(session.t)), "peer": peer, "comparison": rows,
             "ours_heldout": ours_h, "ours_in_sample": ours_in, "peer_scores": theirs, "notes": held.notes,
+            "carry_miss_split_deg": split,
             "time_s": {"ours_calibrate": round(ours_s, 3), "ours_heldout_refits": round(held_s, 2),
                        "peer_calibrate": round(peer_time_s if isinstance(peer_time_s, float) else peer_time_s[0], 3),
                        **({} if isinstance(peer_time_s, float) else {"peer_method_heldout_refits": peer_time_s[1]})}}

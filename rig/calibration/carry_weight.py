@@ -5,10 +5,10 @@ A motion's carried gravity misses the next pose's by a small rotation. Part of i
 axis: the angle came out wrong, as it does when the gyro's scale over that motion is not the one the rest of the
 recording shows (a fast hand flip, a sample clock that runs unevenly). The rest turns across that axis: the axis
 came out wrong, which is what a gyro's misalignment, or its frame against the accelerometer's, does. On imucal's
-SI session the five motions miss by 0.60 deg RMS along their axes and 0.10 across (bench_recordings), while its
-three turns of known angle say the scale to 0.01 deg. Weighting the two parts apart lets the motions fix what
-turns by hand leave open (their axes) without their angles pulling the scale the turns know.
-"""
+SI session the five flips miss by 0.60 deg RMS along their axes and 0.10 across under one weight for both (0.69 and
+0.22 under imucal's calibration; bench_recordings' `carry_miss_split_deg`), while its three turns of known angle
+are fitted to 0.01 deg. Weighed apart, the motions fix what turns by hand leave open (their axes) without their
+angles pulling the scale the turns know."""
 
 from __future__ import annotations
 

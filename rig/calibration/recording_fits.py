@@ -208,8 +208,9 @@ def scattered_cov(J: np.ndarray, r: np.ndarray, kinds: list[slice], floor: bool)
     scatter its residuals show, kind by kind (turn angles, turn axes, motions): the sandwich A^-1 J^T S J A^-1 with
     A = J^T J and S each kind's chi-square per degree of freedom (its rows less their leverage). A kind whose
     residuals the fit absorbs (three turns fix three scales exactly once the motions' angles are let go) shows no
-    scatter, and keeps the deviation its segments state rather than taking the others' `chi-square`. `floor`: no
-    kind is trusted beyond its stated deviation (the prior weight, which nothing chose from the data)."""
+    scatter and keeps the deviation its segments state, where one chi-square for all had shrunk it with the
+    others'. `floor`: no kind is trusted beyond its stated deviation (under the prior weight, which nothing chose
+    from the data)."""
     inv = np.linalg.pinv(J.T @ J)
     leverage = np.einsum("ij,jk,ik->i", J, inv, J)
     variance = np.ones(len(r))
