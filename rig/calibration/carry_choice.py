@@ -24,20 +24,16 @@ def carry_weight_by_cross_validation(B: np.ndarray, turns: list, carries: list, 
 
 
 def _left_out_cost(B: np.ndarray, turns: list, carries: list, H0: np.ndarray, weight: CarryWeight) -> float:
-    cost = 0.0
-    for k in range(len(turns) + len(carries)):
-        kept_turns = [t for i, t in enumerate(turns) if i != k]
-        kept_carries = [c for i, c in enumerate(carries) if i != k - len(turns)]
-        try:
-            H, _, info = gyro_rotation_fit(B, kept_turns, kept_carries, H0=H0, carry=weight)
-        except CalibrationError:
-            return np.inf
-        if info["rank"] < 9:
-            return np.inf
-        if k < len(turns):
-            m, axis, angle, *_ = turns[k]
-            cost += (turn_angle(H, m, axis) - angle) ** 2
-        else:
-            stream, g0, g1 = carries[k - len(turns)]
-            cost += float(carried_errors(H, B, [stream], g0[None], g1[None])[0]) ** 2
-    return cost
+    """Squared angle errors of each turn and motion under the fit without it, taken one Gauss-Newton step from the
+    fit on everything (`jackknife.one_step_deletions`: within a few per cent of a refit, at the cost of none)."""
+    try:
+        _, _, info = gyro_rotation_fit(B, turns, carries, H0=H0, carry=weight)
+    except CalibrationError:
+        return np.inf
+    if info["rank"] < 9 or info["left_out_H"] is None:
+        return np.inf
+    left_out = info["left_out_H"]
+    cost = sum((turn_angle(H, m, axis) - angle) ** 2 for H, (m, axis, angle, *_) in zip(left_out, turns))
+    for H, (stream, g0, g1) in zip(left_out[len(turns):], carries):
+        cost += float(carried_errors(H, B, [stream], g0[None], g1[None])[0]) ** 2
+    return float(cost)

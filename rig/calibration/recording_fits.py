@@ -132,8 +132,9 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
     as `carry` says (along its angle directions at H0). The covariance is the scatter the residuals show
     (`scattered_cov`): at least the stated under the prior weight, as it comes under a weight the data chose
     (`carry_choice.carry_weight_by_cross_validation`).
-    info's `loo_scatter_to_predicted`: the scatter of H over leave-one-turn-or-motion-out refits against the
-    deviation this covariance states (`jackknife`; None where a piece cannot be left out)."""
+    info's `left_out_H`: H without each turn, then each motion, one Gauss-Newton step from this fit
+    (`jackknife.one_step_deletions`; None where a piece cannot be left out), and `loo_scatter_to_predicted` their
+    scatter against the deviation this covariance states."""
     if not turns and not carries:
         raise CalibrationError("gyro: no turn of known angle and no motion between static poses to calibrate H from")
     ms = MoveSet.build([c[0] for c in carries], B) if carries else None
@@ -198,9 +199,11 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
     cov = scattered_cov(J, res.fun, kinds, floor=carry == PRIOR) * scale * scale
     groups = [np.r_[k, n_turns + 3 * k:n_turns + 3 * k + 3] for k in range(n_turns)] + \
              [4 * n_turns + np.arange(3 * c, 3 * c + 3) for c in range(len(carries))]
-    scatter = scatter_to_stated(one_step_deletions(J, res.fun, groups), np.sqrt(np.diag(cov)) / scale)
+    deletions = one_step_deletions(J, res.fun, groups)
+    scatter = scatter_to_stated(deletions, np.sqrt(np.diag(cov)) / scale)
     return H, cov, {"converged": bool(res.success), "iterations": int(res.nfev), "rank": int(np.linalg.matrix_rank(J)),
-                    "moveset": ms, "loo_scatter_to_predicted": scatter}
+                    "moveset": ms, "loo_scatter_to_predicted": scatter,
+                    "left_out_H": None if deletions is None else H + deletions.reshape(-1, 3, 3) * scale}
 
 
 def scattered_cov(J: np.ndarray, r: np.ndarray, kinds: list[slice], floor: bool) -> np.ndarray:
