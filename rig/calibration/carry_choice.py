@@ -1,5 +1,5 @@
 """How far to trust a recording's hand motions, chosen from the recording where turns of known angle say the same
-things too: the weight whose fits best predict each turn and each motion left out of them."""
+things too: the weight whose fit best predicts each turn and each motion left out of it."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ CV_GAIN = 0.5                 # another weight only where it halves the left-out
 
 def carry_weight_by_cross_validation(B: np.ndarray, turns: list, carries: list, H0: np.ndarray) -> CarryWeight:
     """Among `carry_weight.candidates()` (across the axis 0.3 to 6 deg, along it 1, 3 or 10 times that), the
-    weight whose fits best predict each turn and each motion left out of them (squared angle errors summed), kept
+    weight whose fit best predicts each turn and each motion left out of it (squared angle errors summed), kept
     only where it halves them against the prior. A careful hand keeps the prior; imucal's SI session's motions do
     not: their angles miss six times as far as their axes, and weighed apart its left-out turns fall from 1.03 to
     0.75 deg RMS and its left-out motions from 0.85 to 0.73 (bench_recordings)."""
