@@ -21,7 +21,6 @@ from fixtures.world.recorded import RecordedAttitude
 from procedures.twin_noise import noise_dof, printed_decimals, sampled_rows, white_noise
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.recording import RecordingCalibration
-from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.rotations import matrix_from_rotvec
 from rig.session_data import SessionData, filled
@@ -114,15 +113,8 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
-                  carry_weight(gyro), gyro.H if gyro else None,
+                  CarryWeight.from_extra(gyro.extra) if gyro else None, gyro.H if gyro else None,
                   printed_decimals(session, sensors), {name: noise_dof(session, name, rec) for name in sensors})
-
-
-def carry_weight(gyro: TriadCalibration | None) -> CarryWeight | None:
-    """The weight the recording's gyro fit gave its motions (None: it had none, or no gyro)."""
-    if gyro is None or gyro.extra.get("carry_sd") is None:
-        return None
-    return CarryWeight(gyro.extra["carry_sd"], gyro.extra.get("carry_angle_sd", gyro.extra["carry_sd"]))
 
 
 def _attitudes(t: np.ndarray, omega: np.ndarray, pose_of: np.ndarray, up: list[np.ndarray],

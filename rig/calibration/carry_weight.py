@@ -35,6 +35,18 @@ class CarryWeight:
     def isotropic(self) -> bool:
         return self.along_sd == self.across_sd
 
+    def extra(self) -> dict[str, float]:
+        """The keys a gyro calibration's `extra` (and calibration.json) carries it under."""
+        return {"carry_sd": self.across_sd, "carry_angle_sd": self.along_sd}
+
+    @classmethod
+    def from_extra(cls, extra: dict) -> "CarryWeight | None":
+        """The weight a calibration's `extra` names; None where its fit had no motions (a file written before the
+        angle was weighed apart names one weight for both)."""
+        if extra.get("carry_sd") is None:
+            return None
+        return cls(extra["carry_sd"], extra.get("carry_angle_sd", extra["carry_sd"]))
+
 
 PRIOR = CarryWeight()
 
