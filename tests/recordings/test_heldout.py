@@ -86,10 +86,10 @@ def test_a_hand_off_its_nominal_attitude_costs_held_out_what_the_fit_absorbed_in
 def test_a_piece_that_cannot_be_left_out_is_named_not_scored():
     session, truth = generate(7)
 
-    def refuses_turns(s, leave_out=None):
+    def refuses_turns(s, leave_out=None, **options):
         if leave_out and leave_out.get("turns"):
             raise CalibrationError("gyro: too few turns")
-        return calibrate_recording(s, leave_out=leave_out)
+        return calibrate_recording(s, leave_out=leave_out, **options)
 
     held, _ = heldout_scores(session, calibrate=refuses_turns)
     assert held.turn_error_deg == [None, None, None]
