@@ -51,7 +51,7 @@ class RecordingCalibration:
 
 def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
                         carry: CarryWeight | None = None, gyro_start: np.ndarray | None = None,
-                        g_sensitivity: bool = False) -> RecordingCalibration:
+                        g_sensitivity: bool = False, accel: TriadCalibration | None = None) -> RecordingCalibration:
     """Accelerometer (and magnetometer) from the static poses, gyroscope from turns and motions between poses.
 
     leave_out: {"poses": [i, ...], "turns": [k, ...], "carries": [c, ...]} not used in the fit.
@@ -61,19 +61,26 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
     recording's H: the same optimum, to 1e-10, in a third less time).
     g_sensitivity: take the gyro's g-sensitivity into its calibration where the poses show it
     (`rig.calibration.g_sensitivity`; what `rig calibrate` writes). The twin keeps the linear model, and names it.
+    accel: the accelerometer's calibration on these very poses, where the caller has it: a held-out refit that
+    leaves out only a turn or a motion, which the accelerometer's fit never sees, takes it rather than fitting it
+    again (`rig.calibration.heldout`; the gyro's refit on its g-corrected rate does the same).
     """
-    rec = _calibrate_linear(session, leave_out, carry, gyro_start)
+    if accel is not None and (leave_out or {}).get("poses"):
+        raise ValueError("calibrate_recording: an accelerometer calibration given was fitted on every pose; it cannot "
+                         "stand for a refit that leaves out a pose")
+    rec = _calibrate_linear(session, leave_out, carry, gyro_start, accel)
     if g_sensitivity and "gyro" in rec.sensors:
         left = set((leave_out or {}).get("poses", ()))
         gyro = with_g_sensitivity(session, rec.sensors, [p.rows for i, p in enumerate(rec.poses) if i not in left],
-                                  lambda s: _calibrate_linear(s, leave_out, carry, gyro_start).sensors["gyro"])
+                                  lambda s: _calibrate_linear(s, leave_out, carry, gyro_start,
+                                                              rec.sensors["accel"]).sensors["gyro"])
         if gyro is not None:
             rec.sensors["gyro"] = gyro
     return rec
 
 
 def _calibrate_linear(session: SessionData, leave_out: dict | None, carry: CarryWeight | None,
-                      gyro_start: np.ndarray | None) -> RecordingCalibration:
+                      gyro_start: np.ndarray | None, accel: TriadCalibration | None = None) -> RecordingCalibration:
     check_no_stuck_axis(session)
     poses, turns = segments_of(session)
     if not poses:
@@ -88,7 +95,7 @@ def _calibrate_linear(session: SessionData, leave_out: dict | None, carry: Carry
     use_poses = [p for i, p in enumerate(poses) if i not in set(leave_out.get("poses", ()))]
     sensors, warnings = {}, [w for w, _ in saturated]
     with refused_for_saturation(session, [why for _, why in saturated]):
-        sensors["accel"] = vector_fit(session, "accel", use_poses, session.gravity)
+        sensors["accel"] = accel if accel is not None else vector_fit(session, "accel", use_poses, session.gravity)
     carries = whole_carries(session, poses)
     if "gyro" in session.raw:
         turns, carries, clipped = unclipped_turns_and_motions(session, poses, turns, carries)
