@@ -2,21 +2,21 @@
 (`procedures.twin_replay`) with `y = inv(H) u + B` of the recording's own calibration, white noise of the
 recording's own size in every pose (`procedures.twin_noise`) and counts rounded where the recording is in counts;
 effects of the vocabulary can be added to it (`effects`), which is how the extension is measured. Replicas are
-independent, so many run at once in forked worker processes, each calibrated and reduced to its statistics there;
+independent, so many run at once in forked worker processes (`procedures.fork_pool`, which leave stop signals to
+this one), each calibrated and reduced to its statistics there;
 the held-out refits run beside them in a process of their own (`Background`). The workers find their functions
 (`_one_replica`, `_run_background`) and the work they share (`_JOBS`, `_BACKGROUND`) in this module."""
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import os
-import signal
 from collections.abc import Callable, Collection, Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
 from fixtures.world.model import SensorModel, World
+from procedures.fork_pool import ForkPool, fork_available
 from procedures.twin_noise import drawn_level
 from procedures.twin_replay import Replay
 from rig.calibration.recording import calibrate_recording
@@ -76,8 +76,8 @@ def replica_runs(jobs: list[ReplicaJob], workers: int | None = None) -> list[tup
     global _JOBS
     _JOBS = jobs
     try:
-        if workers > 1 and "fork" in mp.get_all_start_methods():
-            with mp.get_context("fork").Pool(workers, initializer=leave_stop_signals_to_parent) as pool:
+        if workers > 1 and fork_available():
+            with ForkPool(workers) as pool:
                 results = pool.map(_one_replica, tasks, chunksize=1)
         else:
             results = [_one_replica(task) for task in tasks]
@@ -92,16 +92,6 @@ def replica_runs(jobs: list[ReplicaJob], workers: int | None = None) -> list[tup
 
 
 _JOBS: list[ReplicaJob] | None = None
-
-
-def leave_stop_signals_to_parent() -> None:
-    """A worker's stop signals are its parent's to act on: Ctrl-C reaches the whole process group, and a worker
-    that took it printed its traceback on the user's terminal; the parent ends the pool on its way out, by SIGTERM,
-    which ends a worker quietly (a parent's own handler, inherited by the fork, is put back to the default)."""
-    for name in ("SIGINT", "SIGHUP"):
-        if hasattr(signal, name):
-            signal.signal(getattr(signal, name), signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _one_replica(task: tuple[int, int]) -> dict | None:
@@ -123,14 +113,14 @@ class Background:
 
     def __init__(self, fn: Callable, *args) -> None:
         global _BACKGROUND
-        self.fn, self.args, self._pool, self._async = fn, args, None, None
-        if (os.cpu_count() or 1) > 1 and "fork" in mp.get_all_start_methods():
+        self.fn, self.args, self._workers, self._async = fn, args, None, None
+        if (os.cpu_count() or 1) > 1 and fork_available():
             _BACKGROUND = (fn, args)
             try:
-                self._pool = mp.get_context("fork").Pool(1, initializer=leave_stop_signals_to_parent)
+                self._workers = ForkPool(1)
             finally:
                 _BACKGROUND = None
-            self._async = self._pool.apply_async(_run_background)
+            self._async = self._workers.pool.apply_async(_run_background)
 
     def result(self) -> object:
         if self._async is not None:
@@ -141,10 +131,9 @@ class Background:
         return self.fn(*self.args)
 
     def close(self) -> None:
-        if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
-            self._pool, self._async = None, None
+        if self._workers is not None:
+            self._workers.close()
+            self._workers, self._async = None, None
 
     def __enter__(self) -> "Background":
         return self
