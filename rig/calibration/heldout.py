@@ -173,22 +173,23 @@ def heldout_scores(session: SessionData, calibrate: Calibrate = calibrate_record
         rms, mean = pose_errors(series(laid, sensors)["accel"], pose.rows, laid.gravity) if sensors else (None, None)
         out.pose_rms.append(rms)
         out.pose_mean_error.append(mean)
-    start = {"gyro_start": full.sensors["gyro"].H, "accel": full.sensors["accel"]} if "gyro" in full.sensors else {}
+    from_full_fit = ({"gyro_start": full.sensors["gyro"].H, "accel": full.sensors["accel"]}
+                     if "gyro" in full.sensors else {})
     for k, turn in enumerate(full.turns):
-        sensors = _refit(calibrate, laid, {"turns": [k]}, f"turn {turn.name}", out.notes, start)
+        sensors = _refit(calibrate, laid, {"turns": [k]}, f"turn {turn.name}", out.notes, from_full_fit)
         out.turn_error_deg.append(turn_error_deg(laid, series(laid, sensors)["gyro"], turn) if sensors else None)
     for c, (i, j) in enumerate(full.carries):
         sensors = _refit(calibrate, laid, {"carries": [c]}, f"motion {full.poses[i].name}->{full.poses[j].name}",
-                         out.notes, start)
+                         out.notes, from_full_fit)
         out.carry_error_deg.append(carry_error_deg(laid, series(laid, sensors), full.poses[i], full.poses[j])
                                    if sensors else None)
     return out, inside
 
 
 def _refit(calibrate: Calibrate, session: SessionData, leave_out: dict, what: str, notes: list[str],
-           start: dict | None = None):
+           from_full_fit: dict | None = None):
     try:
-        return calibrate(session, leave_out=leave_out, **(start or {})).sensors
+        return calibrate(session, leave_out=leave_out, **(from_full_fit or {})).sensors
     except CalibrationError as e:
         notes.append(f"{what} left out: {e}")
         return None
