@@ -77,8 +77,8 @@ def replica_runs(jobs: list[ReplicaJob], workers: int | None = None) -> list[tup
     _JOBS = jobs
     try:
         if workers > 1 and fork_available():
-            with ForkPool(workers) as pool:
-                results = pool.map(_one_replica, tasks, chunksize=1)
+            with ForkPool(workers, "the twin's replicas") as pool:
+                results = pool.map(_one_replica, tasks)
         else:
             results = [_one_replica(task) for task in tasks]
     finally:
@@ -117,29 +117,29 @@ class Background:
         if (os.cpu_count() or 1) > 1 and fork_available():
             _BACKGROUND = (fn, args)
             try:
-                self._workers = ForkPool(1)
+                self._workers = ForkPool(1, "the held-out refits")
+                self._async = self._workers.submit(_run_background)
             finally:
                 _BACKGROUND = None
-            self._async = self._workers.pool.apply_async(_run_background)
 
     def result(self) -> object:
         if self._async is not None:
-            ok, value = self._async.get()
+            ok, value = self._workers.result(self._async)
             self.close()
             if ok:
                 return value
         return self.fn(*self.args)
 
-    def close(self) -> None:
+    def close(self, abandon: bool = False) -> None:
         if self._workers is not None:
-            self._workers.close()
+            self._workers.close(abandon)
             self._workers, self._async = None, None
 
     def __enter__(self) -> "Background":
         return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+    def __exit__(self, exc_type, *exc) -> None:
+        self.close(abandon=exc_type is not None)
 
 
 _BACKGROUND = None
