@@ -15,6 +15,7 @@ from pathlib import Path
 from rig.board import placements
 from rig.boards import BOARDS as BOARD_SPECS
 from rig.report.limits import LimitsError, validate_limits
+from rig.io.text_file import read_utf8
 from rig.rotations import TableGeometry
 from rig.sim_faults import SimFaults, checked_sim_faults, is_finite_number
 from rig.turntable.profile import load_profile
@@ -76,10 +77,8 @@ def load_config(path: str | Path | None = None) -> RigConfig:
         text, where = resources.files("rig.configs").joinpath("sim.toml").read_text(), "<built-in sim.toml>"
     else:
         where = str(path)
-        try:
-            text = Path(path).read_text()
-        except OSError as e:
-            raise ValueError(f"{where}: cannot read rig configuration: {e.strerror}") from None
+        text = read_utf8(Path(path), lambda message, line: ValueError(
+            f"{where}" + (f", line {line}" if line else "") + f": cannot read rig configuration: {message}"))
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:

@@ -47,8 +47,7 @@ def discrepancy(session_dir, json_out, report_dir, no_replay, replicas, heldout)
     try:
         session = read_any_session(session_dir)
     except RigError as exc:
-        click.echo(f"error: {plain(str(exc))}", err=True)
-        sys.exit(Exit.BAD_INPUT)
+        raise command_error(exc) from None
     session.meta.setdefault("session", session_dir.name)
     if session.meta.get("reference") == "none":
         return _recording(session, session_dir, json_out, report_dir, replicas, heldout)

@@ -9,12 +9,11 @@ stretch; samples a sensor lacks are left out of its streams.
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import click
 
-from rig.exits import CommandError, Exit, plain
+from rig.exits import CommandError, Exit, command_error
 
 STILL_RATIO = 10.0     # a still stream's spread is its white noise and slow drifts; a moved one's is the motion
 TERMS = (("N", "white noise", "per sqrt(Hz)"), ("B", "bias instability", ""), ("K", "rate random walk", "sqrt(Hz)"),
@@ -37,8 +36,7 @@ def noise(session_dir, json_out):
     try:
         session = read_any_session(session_dir)
     except RigError as exc:
-        click.echo(f"error: {plain(str(exc))}", err=True)
-        sys.exit(Exit.BAD_INPUT)
+        raise command_error(exc) from None
     report = static_noise(session)
     for sensor, axes in report["sensors"].items():
         unit = report["units"][sensor]

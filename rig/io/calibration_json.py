@@ -19,15 +19,16 @@ import numpy as np
 
 import rig
 from rig.calibration.result import GSensitivity, TriadCalibration
-from rig.errors import RigError
+from rig.errors import InputError
 from rig.io.atomic import write_text_atomic
+from rig.io.text_file import read_utf8
 from rig.units import SENSOR_UNITS
 
 SCHEMA = "rig-calibration/1"
 TOP_LEVEL_KEYS = ("schema", "created", "software", "unit", "gravity_mps2", "field_uT", "sensors")
 
 
-class CalibrationFileError(RigError, ValueError):
+class CalibrationFileError(InputError):
     """A calibration file breaks `rig-calibration/1`; names the file and the key."""
 
     def __init__(self, file: str | os.PathLike, message: str, key: str | None = None) -> None:
@@ -100,10 +101,8 @@ def _jsonable(x):
 def read_calibration(path: str | os.PathLike) -> dict:
     """Parse and validate a calibration file; returns the JSON document as read."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise CalibrationFileError(path, "no such file") from None
+    text = read_utf8(path, lambda message, line: CalibrationFileError(
+        path, message if line is None else f"line {line}: {message}"))
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as e:

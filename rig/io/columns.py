@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.errors import SessionFormatError
+from rig.io.text_file import first_line_not_utf8
 
 FIRST_DATA_LINE = 2
 EMPTY = "-9223372036854775807"      # an empty cell inside the C parser (an int64 and a float); NaN once parsed
@@ -40,8 +41,10 @@ def read_header(path: Path, delimiter: str = ",", header_line: int = 1) -> list[
             first = f.readline()
     except FileNotFoundError:
         raise SessionFormatError(path, "no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SessionFormatError(path, f"cannot be read as text: {exc}") from None
+    except OSError as exc:
+        raise SessionFormatError(path, f"cannot be read: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise SessionFormatError(path, *reversed(first_line_not_utf8(path))) from None
     if not first.strip():
         raise SessionFormatError(path, "empty file: a header row is required" if header_line == 1 else
                                  "no header row here (the line is empty or beyond the end of the file)", header_line)
@@ -82,6 +85,14 @@ def read_columns(path: Path, header: list[str], numeric: list[str], text: list[s
     the first cell that is not a (finite) number or integer, a row with the wrong number of cells, or an empty
     required cell.
     """
+    try:
+        return _read_columns(path, header, numeric, text, integers, delimiter, required, header_line)
+    except UnicodeDecodeError:                         # streamed: the decoder's position is not the file's
+        raise SessionFormatError(path, *reversed(first_line_not_utf8(path))) from None
+
+
+def _read_columns(path: Path, header: list[str], numeric: list[str], text: list[str], integers: tuple[str, ...],
+                  delimiter: str, required: tuple[str, ...], header_line: int) -> dict[str, np.ndarray]:
     index = {name: header.index(name) for name in [*numeric, *text]}
     first = header_line + 1
     out: dict[str, np.ndarray] = {}

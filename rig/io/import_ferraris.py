@@ -20,6 +20,7 @@ import numpy as np
 
 from rig.errors import InputError, SessionFormatError
 from rig.io.columns import FIRST_DATA_LINE, read_columns, read_header
+from rig.io.text_file import read_utf8
 from rig.io.recording import STANDARD_GRAVITY, check_counts, recording_session, to_session_units
 from rig.session_data import SessionData
 
@@ -123,10 +124,9 @@ def _pieces_apart(t: np.ndarray, spans: dict[str, tuple[int, int]]) -> np.ndarra
 
 def _sections(path: Path, rows: int) -> dict[str, tuple[int, int]]:
     """imucal's section list: {name: {"start": i, "end": j}}, row positions, end exclusive."""
+    text = read_utf8(path, lambda message, line: SessionFormatError(path, message, line))
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SessionFormatError(path, "no such file") from None
+        doc = json.loads(text)
     except json.JSONDecodeError as e:
         raise SessionFormatError(path, f"not valid JSON: {e.msg}", e.lineno) from None
     if not isinstance(doc, dict) or not doc:

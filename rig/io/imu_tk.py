@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.errors import SessionFormatError
+from rig.io.text_file import read_utf8
 
 COLUMNS = ("timestamp", "x", "y", "z")
 _SEPARATOR = re.compile(r"[,\s]+")
@@ -32,10 +33,7 @@ def read_imu_tk(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
 def read_imu_tk_lines(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """As `read_imu_tk`, with the file line (1-based) each row came from, for messages about a row."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SessionFormatError(path, "no such file") from None
+    text = read_utf8(path, lambda message, line: SessionFormatError(path, message, line))
     lines = text.splitlines()
     numbers = [i for i, s in enumerate(lines) if s.strip() and not s.lstrip().startswith("#")]
     if not numbers:

@@ -12,16 +12,15 @@ import math
 from pathlib import Path
 
 from rig.errors import SessionFormatError
+from rig.io.text_file import read_utf8
 from rig.io.session_format import FORMAT, REFERENCES, REQUIRED_COLUMNS, SEGMENT_KINDS, SENSOR_AXES, TABLE_COLUMNS, UNITS
 from rig.units import SENSOR_UNITS
 
 
 def read_meta(path: Path) -> dict:
     """Parse and validate meta.json; errors name the line of the offending key."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SessionFormatError(path, "missing: a session folder holds meta.json and samples.csv") from None
+    text = read_utf8(path, lambda message, line: SessionFormatError(path, message, line),
+                     missing="missing: a session folder holds meta.json and samples.csv")
     try:
         meta = json.loads(text)
     except json.JSONDecodeError as e:

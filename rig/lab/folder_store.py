@@ -76,8 +76,8 @@ class FolderStore:
         records = []
         for _, source, path in sorted(found, key=lambda f: f[0]):
             try:
-                doc = load_document(path.read_text(), str(path))
-            except (OSError, StoreInputError):
+                doc = load_document(path.read_text(encoding="utf-8"), str(path))
+            except (OSError, UnicodeDecodeError, StoreInputError):
                 continue
             records.append(CalibrationRecord(row.name, row.key, row.started, row.rig, row.status, source, doc))
         return records
@@ -191,7 +191,10 @@ class FolderStore:
             kind, _, run = path.stem.partition("-")
             if kind == "calibration":
                 continue
-            doc = json.loads(path.read_text())
+            try:
+                doc = json.loads(path.read_text(encoding="utf-8"))
+            except (OSError, ValueError):           # a result file damaged on disk: as if the run had not written it
+                continue
             out.append({"kind": kind, "run": run, "ok": doc.get("ok"), "document": doc.get("document"),
                         "created_utc": datetime.fromtimestamp(path.stat().st_mtime, timezone.utc)})
         return out
