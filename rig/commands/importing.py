@@ -134,8 +134,9 @@ def import_ferraris(csv_file, sections, annotated, rate_hz, units, turn_deg, til
 @click.option("--units", default=None,
               help="Units, e.g. accel=m/s^2,gyro=deg/s,mag=uT (also g, rad/s, gauss, mG; default: counts).")
 @click.option("--delimiter", default=",", show_default=True)
-@click.option("--header-line", type=click.IntRange(1), default=1, show_default=True,
-              help="Line of the column names, for a logger that prints its settings above them.")
+@click.option("--header-line", type=click.IntRange(0), default=1, show_default=True,
+              help="Line of the column names, for a logger that prints its settings above them; 0 for a file "
+                   "without them, whose columns are then named by number from 1.")
 @click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True), help="Local field magnitude, uT (with --mag).")
 @_initial_rest_option
 @_gravity_option

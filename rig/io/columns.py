@@ -59,6 +59,23 @@ def read_header(path: Path, delimiter: str = ",", header_line: int = 1) -> list[
     return header
 
 
+def numbered_columns(path: Path, delimiter: str = ",") -> list[str]:
+    """A file without a header: its columns named by number from 1 ("1", "2", ...), as many as its first line
+    has cells."""
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as f:
+            first = f.readline()
+    except FileNotFoundError:
+        raise SessionFormatError(path, "no such file") from None
+    except OSError as exc:
+        raise SessionFormatError(path, f"cannot be read: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise SessionFormatError(path, *reversed(first_line_not_utf8(path))) from None
+    if not first.strip():
+        raise SessionFormatError(path, "no data on the first line (a file without a header starts with its data)", 1)
+    return [str(k) for k in range(1, len(next(csv.reader([first], delimiter=delimiter))) + 1)]
+
+
 def header_line_holding(path: Path, names: list[str], delimiter: str = ",", within: int = 100) -> int | None:
     """The first of the file's first `within` lines whose cells hold every one of `names` (1-based), or None:
     where a header that is not on line 1 is, to tell the user which `--header-line` to give."""
@@ -157,7 +174,7 @@ def _numeric_lines(path: Path, header: list[str], delimiter: str, header_line: i
     for line_no, line in _text_lines(path, header_line):
         if line.count(delimiter) != width - 1 and '"' not in line:
             cells = line.count(delimiter) + 1
-            raise SessionFormatError(path, f"row has {cells} cells, the header has {width}", line_no,
+            raise SessionFormatError(path, f"row has {cells} cells, {_first(header_line)} has {width}", line_no,
                                      header[cells] if cells < width else None)
         if (" " in line or "\t" in line) and '"' not in line:
             # Cells padded with blanks ("1, 2, , 4", as printf-style loggers write them): the header's names and
@@ -189,8 +206,8 @@ def _raise_first_problem(path: Path, header: list[str], numeric: list[str], inte
             rows += 1
             if len(row) != len(header):
                 column = header[len(row)] if len(row) < len(header) else None
-                raise SessionFormatError(path, f"row has {len(row)} cells, the header has {len(header)}", line_no,
-                                         column)
+                raise SessionFormatError(path, f"row has {len(row)} cells, {_first(header_line)} has {len(header)}",
+                                         line_no, column)
             for name, i in cols:
                 cell = row[i].strip()
                 if not cell:
@@ -222,3 +239,7 @@ def cell_text(path: Path, line_no: int, column: str, delimiter: str = ",") -> st
                 return row[header.index(column)].strip() if column in header and len(row) > header.index(column) \
                     else ""
     return ""
+
+
+def _first(header_line: int) -> str:
+    return "the header" if header_line else "the first row"

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.errors import InputError, SessionFormatError
-from rig.io.columns import header_line_holding, read_columns, read_header
+from rig.io.columns import header_line_holding, numbered_columns, read_columns, read_header
 from rig.io.recording import STANDARD_GRAVITY, check_counts, recording_session, to_session_units
 from rig.session_data import SessionData
 
@@ -25,7 +25,8 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
                field_uT: float | None = None, header_line: int = 1,
                initial_rest_s: float | None = None) -> SessionData:
     """`sensors`: sensor -> its three column names (sensor axes x, y, z); `units`: sensor -> unit of those;
-    `header_line`: the line of the column names (1-based), for a logger that prints its settings above them."""
+    `header_line`: the line of the column names (1-based), for a logger that prints its settings above them; 0
+    for a file without them (imu_tk's and many loggers' plain numbers), whose columns are named "1", "2", ..."""
     path = Path(path)
     if (time_column is None) == (rate_hz is None):
         raise InputError("give either --time COLUMN (with --time-unit) or --rate-hz R for a file without time stamps")
@@ -35,15 +36,17 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
         raise InputError(f"--rate-hz {rate_hz!r}: must be a positive number")
     if "mag" in sensors and field_uT is None:
         raise InputError("a magnetometer needs the local field magnitude: give --field-uT")
-    if header_line < 1:
-        raise InputError(f"--header-line {header_line}: lines count from 1")
-    header = read_header(path, delimiter, header_line)
+    if header_line < 0:
+        raise InputError(f"--header-line {header_line}: lines count from 1 (0: the file has no header)")
+    header = read_header(path, delimiter, header_line) if header_line else numbered_columns(path, delimiter)
     wanted = [*([time_column] if time_column else []), *(c for cols in sensors.values() for c in cols),
               *([temp_column] if temp_column else [])]
     for name in wanted:
         if name not in header:
-            there = header_line_holding(path, wanted, delimiter)
+            there = header_line_holding(path, wanted, delimiter) if header_line else None
             hint = f"; line {there} has every column named: give --header-line {there}" if there else ""
+            if not there and header_line and all(c.isdigit() for c in wanted) and _all_numbers(header):
+                hint = "; the file has no header: give --header-line 0, and the columns by number from 1"
             raise SessionFormatError(path, f"column {name!r} (named on the command line) is not in the header; it has "
                                      f"{', '.join(header)}{hint}", header_line, name)
     if len(set(wanted)) != len(wanted):
@@ -86,3 +89,10 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
                                        "units": units, "time": time_column or f"rows at {rate_hz:g} Hz",
                                        **({"header_line": header_line} if header_line != 1 else {}),
                                        **({"time_unit": time_unit} if time_column else {})})
+
+
+def _all_numbers(cells: list[str]) -> bool:
+    try:
+        return all(np.isfinite(float(c)) for c in cells)
+    except ValueError:
+        return False

@@ -37,6 +37,28 @@ def test_a_header_below_the_loggers_settings_is_found_by_line_and_errors_name_th
     assert done.returncode == 2 and "line 42" in one_clear_line(done), done.stderr
 
 
+def test_a_file_without_a_header_is_read_by_column_number_and_its_rows_named_by_their_lines(tmp_path):
+    """mikoff/imu-calib's MPU-9150 logs are plain numbers separated by blanks, no header, no time column."""
+    rec = recording(3, poses=3, rest_s=5.0)
+    plain = tmp_path / "imu.log"
+    np.savetxt(plain, np.column_stack([rec["accel"], rec["gyro"]]), fmt="%.6f", delimiter=" ")
+    by_number = ["--rate-hz", "50", "--accel", "1,2,3", "--gyro", "4,5,6", *SI, "--delimiter", " "]
+    done = rig("import", "csv", str(plain), *by_number, "--out", str(tmp_path / "a"))
+    assert done.returncode == 2 and "give --header-line 0" in one_clear_line(done), done.stderr
+    done = rig("import", "csv", str(plain), *by_number, "--header-line", "0", "--out", str(tmp_path / "b"))
+    assert done.returncode == 0, done.stderr
+    samples = np.genfromtxt(tmp_path / "b" / "samples.csv", delimiter=",", names=True)
+    assert len(samples) == len(rec["t"])
+    np.testing.assert_allclose(samples["ax"], np.round(rec["accel"][:, 0], 6), atol=1e-9)
+    np.testing.assert_allclose(samples["gz"], np.round(rec["gyro"][:, 2], 6), atol=1e-9)
+    lines = plain.read_text().splitlines()
+    lines[36] += " 1.0"                                             # the file's line 37: its 37th row
+    plain.write_text("\n".join(lines) + "\n")
+    done = rig("import", "csv", str(plain), *by_number, "--header-line", "0", "--out", str(tmp_path / "c"))
+    assert done.returncode == 2 and "line 37" in one_clear_line(done), done.stderr
+    assert "the first row has 6" in done.stderr, done.stderr
+
+
 def test_a_recording_that_says_its_initial_rest_is_calibrated_from_it(tmp_path):
     """A 30 s rest: imu_tk's 50 s threshold window takes in the first poses and motions, and the record is
     refused; said at import (kept in meta.json), the same record is calibrated and its gyro bias is the rest's."""
