@@ -9,13 +9,16 @@
   `test_imu_calib` run), g = 9.81744.
 * tomisuarez2/ImuCalibration (a Python port of imu_tk): its published parameters for its own MPU-6050 session
   (tests/data/mpu6050-tomisuarez2, PROVENANCE.md), read from its files; g = 9.80665, as it was run.
+* mikoff/imu-calib (Mikov et al., ICINS 2020): its own method run on its own MPU-9150 logs (`mikov_peer.py`, the
+  parameters in tests/data/mikoff-imu-calib/peer_params.json); imu0.log from tests/data, all five with
+  --mikov-repo DIR (a checkout); g = 9.81, as its code fits.
 Ours is `calibrate_recording` on the imported session as `rig calibrate` runs it (the gyro's g-sensitivity taken
 into its calibration where the poses show it, `rig.calibration.g_sensitivity`). Held-out scores (rig.calibration.heldout): leave one
 pose / turn / motion out and refit. A peer whose closed form cannot refit without a piece (imucal needs all six
 faces and all three turns; imu_tk's parameters are published, fitted on every pose and motion) is scored
 in-sample there, which favours the peer; pieces no fit saw (imucal never uses the motions between faces or the
 rests outside its sections) are held out for both.
-Usage: python benchmarks/bench_recordings.py [--data DIR] [--only si,raw,xsens,mpu]
+Usage: python benchmarks/bench_recordings.py [--data DIR] [--only si,raw,xsens,mpu,mikov] [--mikov-repo DIR]
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from rig.io.import_ferraris import import_ferraris  # noqa: E402
 from rig.io.import_imu_tk import import_imu_tk  # noqa: E402
 from rig.rotations import axis_angle_matrix  # noqa: E402
 from rig.session_data import MoveStream  # noqa: E402
+from mikov_peer import as_rig  # noqa: E402
 
 IMUCAL_GRAVITY = 9.81
 XSENS_GRAVITY = 9.81744
@@ -69,6 +73,8 @@ QUANTITY = {"accel_pose_rms": "accel |a|-g RMS over the samples of each pose, m/
             "gyro_carry_deg": "gyro gravity carried between poses, angle RMS, deg"}
 IMUCAL_NEVER_FITS = {"accel_rest_rms", "accel_rest_mean_error", "gyro_carry_deg"}     # its Ferraris fit uses the sections only
 IMU_TK_RUN_S = 1.0          # anchors 4.2: "run time ~ 1 s" (not measured here)
+MIKOV = ROOT / "tests" / "data" / "mikoff-imu-calib"
+MIKOV_GRAVITY = 9.81        # its accelerometer fit takes gravity as 9.81 (code/cost_functions.py, residual_acc)
 
 
 def imucal_ferraris(session, *, csv: Path | None = None, sections: Path | None = None, annotated: Path | None = None,
@@ -231,7 +237,8 @@ def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=Path(os.environ.get("RIG_SHARED", ROOT.parent / "shared")) / "data")
-    parser.add_argument("--only", default="si,raw,xsens,mpu")
+    parser.add_argument("--only", default="si,raw,xsens,mpu,mikov")
+    parser.add_argument("--mikov-repo", type=Path, help="a checkout of mikoff/imu-calib: all five of its logs")
     args = parser.parse_args()
     ferraris, xsens = args.data / "imucal-ferraris", args.data / "imu_tk-xsens"
     only, results = set(args.only.split(",")), []
@@ -262,6 +269,19 @@ def main() -> None:
                                "tomisuarez2/ImuCalibration (published parameters)",
                                lambda laid: published_series(published, laid), float("nan"), set(),
                                lambda laid, full: {"gyro_carry_deg": imu_tk_method_carries(laid, full)}))
+    if "mikov" in only:
+        logs = sorted((args.mikov_repo / "data").glob("imu*.log")) if args.mikov_repo else [MIKOV / "imu0.log"]
+        peer = json.loads((MIKOV / "peer_params.json").read_text())
+        for log in logs:
+            s = import_csv(log, {"accel": ["1", "2", "3"], "gyro": ["4", "5", "6"]},
+                           units={"accel": "m/s^2", "gyro": "rad/s"}, rate_hz=100.0, delimiter=" ", header_line=0,
+                           initial_rest_s=7.0, gravity=MIKOV_GRAVITY)
+            params = as_rig(peer[log.name])
+            results.append(compare(f"mikoff/imu-calib MPU-9150 {log.name} (SI, 100 Hz)", s,
+                                   "Mikov et al. (its own code, run here)",
+                                   lambda laid, params=params: published_series(params, laid),
+                                   peer[log.name]["seconds"], set(),
+                                   lambda laid, full: {"gyro_carry_deg": imu_tk_method_carries(laid, full)}))
     print(json.dumps({"benchmark": "bench_recordings", "load": round(os.getloadavg()[0], 2), "recordings": results},
                      indent=1))
 
