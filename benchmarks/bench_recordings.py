@@ -44,6 +44,7 @@ from rig.calibration.recording_fits import gyro_rotation_fit  # noqa: E402
 from rig.calibration.recording_gyro import motion  # noqa: E402
 from rig.calibration.recording_vector import gravity_directions  # noqa: E402
 from rig.calibration.static_detect import initial_interval  # noqa: E402
+from rig.calibration.turntable_free import turntable_free_accel  # noqa: E402
 from rig.io.import_csv import import_csv  # noqa: E402
 from rig.io.import_ferraris import import_ferraris  # noqa: E402
 from rig.io.import_imu_tk import import_imu_tk  # noqa: E402
@@ -151,16 +152,18 @@ def tomisuarez2_published(folder: Path) -> dict:
 def imu_tk_method_carries(laid, full) -> list[float]:
     """imu_tk's gyro method held out, motion by motion: B the mean of the initial 50 s rest, H carrying the gravity
     direction of each pose (unweighted unit-vector residuals, MultiPosGyroResidual) across every other motion
-    (rig's re-implementation; on all motions it gives imu_tk's published H to 0.2 % on the diagonal). imu_tk's
-    accelerometer method is ours on this recording (upper-triangular H, the first 100 samples of each pose)."""
-    B0 = laid.raw["gyro"][:initial_interval(laid.t, float(laid.meta.get("initial_rest_s") or 50.0))].mean(axis=0)
-    g = gravity_directions(laid, full.sensors["accel"], full.poses)
+    (rig's re-implementation; on all motions it gives imu_tk's published H to 0.2 % on the diagonal), with imu_tk's
+    accelerometer (upper-triangular H fitted to the first 100 samples of each pose, `turntable_free_accel`)."""
+    rest = float(laid.meta.get("initial_rest_s") or 50.0)
+    B0 = laid.raw["gyro"][:initial_interval(laid.t, rest)].mean(axis=0)
+    accel = turntable_free_accel(laid.t, laid.raw["accel"], gravity=laid.gravity, init_static_s=rest)
+    g = gravity_directions(laid, accel, full.poses)
     streams = [motion(laid, full.poses[i], full.poses[j]) for i, j in full.carries]
     out = []
     for c, (i, j) in enumerate(full.carries):
         terms = [(streams[k], g[a], g[b]) for k, (a, b) in enumerate(full.carries) if k != c]
         H, _, _ = gyro_rotation_fit(B0, [], terms)
-        cal = {"accel": full.sensors["accel"].apply(laid.raw["accel"]), "gyro": (laid.raw["gyro"] - B0) @ H.T}
+        cal = {"accel": accel.apply(laid.raw["accel"]), "gyro": (laid.raw["gyro"] - B0) @ H.T}
         out.append(carry_error_deg(laid, cal, full.poses[i], full.poses[j]))
     return out
 

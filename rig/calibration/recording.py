@@ -148,7 +148,7 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     sensors, refused = {}, {}
     try:                                                # name the recording, as every other refusal here does
         sensors["accel"] = turntable_free_accel(t, accel, gravity=session.gravity, init_static_s=rest,
-                                                columns=columns["accel"])
+                                                columns=columns["accel"], pose_means=True)
         try:
             sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
                                                   init_static_s=rest, columns=columns["gyro"])

@@ -10,7 +10,6 @@ from rig.calibration.norm_fit_cov import stated_uncertainty
 from rig.calibration.recording_fits import fit_faces
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import Pose
-from rig.calibration.static_detect import SAMPLES_PER_INTERVAL
 from rig.calibration.turntable_free import fit_accel_upper
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
@@ -60,11 +59,10 @@ def _norm_only_fit(session: SessionData, sensor: str, poses: list[Pose], norm: f
         raise CalibrationError(f"{sensor}: {len(poses)} static poses and none says which axis was up; the norm model "
                                "needs at least 9")
     chunks = [session.raw[sensor][p.rows][~np.isnan(session.raw[sensor][p.rows]).any(axis=1)] for p in poses]
-    fitted = [c[:SAMPLES_PER_INTERVAL] for c in chunks]                                  # imu_tk fits 100 a pose
-    B, H, cost = fit_accel_upper(fitted, norm)
+    B, H, cost = fit_accel_upper(chunks, norm)                      # each pose's mean: imu_tk fits 100 samples
     rms = float(np.sqrt(np.mean((np.linalg.norm((y - B) @ H.T, axis=1) - norm) ** 2)))
     means = np.array([c.mean(axis=0) for c in chunks])
-    spread, basis, few = stated_uncertainty(fitted, B, H, norm)
+    spread, basis, few = stated_uncertainty(chunks, B, H, norm)
     return TriadCalibration(B=B, H=H, method="recording-norm (upper-triangular H, imu_tk convention)",
                             residual_rms=rms, warnings=few, **spread,
                             extra={"poses": [p.name for p in poses], "uncertainty": basis,
