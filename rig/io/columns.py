@@ -34,17 +34,7 @@ INTEGER = re.compile(r"[+-]?\d+")
 def read_header(path: Path, delimiter: str = ",", header_line: int = 1) -> list[str]:
     """The header row's names, stripped; an empty or repeated name is an error naming the file and the line.
     `header_line` is where it is (1-based): a logger that prints its settings above the columns."""
-    try:
-        with open(path, encoding="utf-8-sig", newline="") as f:
-            for _ in range(header_line - 1):
-                f.readline()
-            first = f.readline()
-    except FileNotFoundError:
-        raise SessionFormatError(path, "no such file") from None
-    except OSError as exc:
-        raise SessionFormatError(path, f"cannot be read: {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise SessionFormatError(path, *reversed(first_line_not_utf8(path))) from None
+    first = _line(path, header_line)
     if not first.strip():
         raise SessionFormatError(path, "empty file: a header row is required" if header_line == 1 else
                                  "no header row here (the line is empty or beyond the end of the file)", header_line)
@@ -62,18 +52,25 @@ def read_header(path: Path, delimiter: str = ",", header_line: int = 1) -> list[
 def numbered_columns(path: Path, delimiter: str = ",") -> list[str]:
     """A file without a header: its columns named by number from 1 ("1", "2", ...), as many as its first line
     has cells."""
+    first = _line(path, 1)
+    if not first.strip():
+        raise SessionFormatError(path, "no data on the first line (a file without a header starts with its data)", 1)
+    return [str(k) for k in range(1, len(next(csv.reader([first], delimiter=delimiter))) + 1)]
+
+
+def _line(path: Path, line_no: int) -> str:
+    """Line `line_no` (1-based) of a text file, "" beyond its end; a file that cannot be read is named."""
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
-            first = f.readline()
+            for _ in range(line_no - 1):
+                f.readline()
+            return f.readline()
     except FileNotFoundError:
         raise SessionFormatError(path, "no such file") from None
     except OSError as exc:
         raise SessionFormatError(path, f"cannot be read: {exc.strerror}") from None
     except UnicodeDecodeError:
         raise SessionFormatError(path, *reversed(first_line_not_utf8(path))) from None
-    if not first.strip():
-        raise SessionFormatError(path, "no data on the first line (a file without a header starts with its data)", 1)
-    return [str(k) for k in range(1, len(next(csv.reader([first], delimiter=delimiter))) + 1)]
 
 
 def header_line_holding(path: Path, names: list[str], delimiter: str = ",", within: int = 100) -> int | None:
