@@ -43,8 +43,12 @@ class ForkPool:
         self._workers: list[mp.process.BaseProcess] = []
 
     def submit(self, fn: Callable, *args) -> Future:
+        """`fn(*args)` in a worker; WorkerDied where one has already died (the pool takes no more work then)."""
         if self._workers:
-            return self._executor.submit(fn, *args)
+            try:
+                return self._executor.submit(fn, *args)
+            except BrokenProcessPool:
+                raise self._death() from None
         before = set(mp.active_children())
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
         try:                                        # the first submit forks every worker

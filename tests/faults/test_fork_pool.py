@@ -91,3 +91,27 @@ def test_a_sigterm_to_the_whole_group_stops_the_parent_and_ends_every_worker():
     lines, left = _run("group")
     assert lines.get("stopped") == "SIGTERM", lines
     assert lines.get("left") == "0" and left == 0
+
+
+def _die_of(signum: int) -> None:
+    os.kill(os.getpid(), signum)
+
+
+def test_work_given_after_a_worker_died_is_refused_naming_it_not_as_a_broken_pool():
+    """Between two submits a worker can die (the replicas are all submitted at once): the next submit is refused
+    with the worker's pid and signal, as the results are, not with the executor's own exception (an internal
+    error to the user)."""
+    from procedures.fork_pool import ForkPool, WorkerDied
+
+    with ForkPool(1, "the test's work") as pool:
+        first = pool.submit(_die_of, signal.SIGKILL)
+        deadline = time.monotonic() + 30
+        while not first.done() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert first.done()
+        try:
+            pool.submit(abs, -1)
+        except WorkerDied as exc:
+            assert "of the test's work died of SIGKILL" in str(exc), exc
+        else:
+            raise AssertionError("a pool whose worker died took more work")
