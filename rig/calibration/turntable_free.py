@@ -171,9 +171,10 @@ def fit_accel_upper(chunks: list[np.ndarray], gravity: float, per_sample: bool =
     (poses held 3-10 s) its fit left the mean of a left-out pose 1.4-2.5 times further from g than this one (README,
     "Beside the peers"). The ellipsoid through the means starts the fit.
     """
-    samples = np.vstack(chunks) if per_sample else np.array([c.mean(axis=0) for c in chunks])
+    means = np.array([c.mean(axis=0) for c in chunks])
+    samples = np.vstack(chunks) if per_sample else means
     try:
-        ell = fit_ellipsoid(np.array([c.mean(axis=0) for c in chunks]), min_spread=0.0)
+        ell = fit_ellipsoid(means, min_spread=0.0)
         H0 = gravity * np.linalg.cholesky(ell.shape).T
         B0 = ell.center
     except (CalibrationError, np.linalg.LinAlgError):

@@ -8,6 +8,7 @@ and the byte there, as bad input.
 
 from __future__ import annotations
 
+import io
 from collections.abc import Callable
 from pathlib import Path
 
@@ -26,7 +27,7 @@ def read_utf8(path: Path, fail: Callable[[str, int | None], Exception], missing:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
-        line, message = not_utf8(data.splitlines(keepends=True))
+        line, message = not_utf8(io.BytesIO(data))                # lines as the streamed readers count them
         raise fail(message, line) from None
 
 
