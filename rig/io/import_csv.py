@@ -42,6 +42,10 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
     wanted = [*([time_column] if time_column else []), *(c for cols in sensors.values() for c in cols),
               *([temp_column] if temp_column else [])]
     for name in wanted:
+        if name not in header and not header_line:
+            raise SessionFormatError(path, f"column {name!r} (named on the command line) is not in the file: its first "
+                                     f"line has {len(header)} cell{'s' if len(header) != 1 else ''} separated by {delimiter!r}, "
+                                     f"columns 1 to {len(header)}", 1, name)
         if name not in header:
             there = header_line_holding(path, wanted, delimiter) if header_line else None
             hint = f"; line {there} has every column named: give --header-line {there}" if there else ""

@@ -45,6 +45,9 @@ def test_a_file_without_a_header_is_read_by_column_number_and_its_rows_named_by_
     by_number = ["--rate-hz", "50", "--accel", "1,2,3", "--gyro", "4,5,6", *SI, "--delimiter", " "]
     done = rig("import", "csv", str(plain), *by_number, "--out", str(tmp_path / "a"))
     assert done.returncode == 2 and "give --header-line 0" in one_clear_line(done), done.stderr
+    done = rig("import", "csv", str(plain), *by_number[:-1], ",", "--header-line", "0", "--out", str(tmp_path / "w"))
+    assert done.returncode == 2 and "line 1, column '2'" in one_clear_line(done), done.stderr
+    assert "its first line has 1 cell separated by ','" in done.stderr, done.stderr
     done = rig("import", "csv", str(plain), *by_number, "--header-line", "0", "--out", str(tmp_path / "b"))
     assert done.returncode == 0, done.stderr
     samples = np.genfromtxt(tmp_path / "b" / "samples.csv", delimiter=",", names=True)
