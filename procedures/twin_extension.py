@@ -23,7 +23,7 @@ from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.stats import holm
 from rig.noise.allan import allan_deviation, fit_noise
-from rig.noise.statistics import on_grid, value_step
+from rig.noise.statistics import quantum
 from rig.effects import unit_for
 from rig.session_data import SessionData
 from rig.units import REPORT_UNITS
@@ -92,10 +92,10 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
         scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT_UNITS[sensor][1]   # reported unit per raw unit
         still = _clean(y[longest.rows])
         q = None
-        if f"{sensor}.step" in fams and replay.units[sensor] != "counts":
-            q = np.array([value_step(_clean(y)[:, k]) for k in range(3)])
-            # a step that is no grid is how densely a stream in full precision lies, not a quantum to name
-            q = np.where([on_grid(_clean(y)[:, k], q[k]) for k in range(3)], q, 0.0)
+        if f"{sensor}.step" in fams:
+            q = np.array([quantum(_clean(y)[:, k]) for k in range(3)])
+            if replay.units[sensor] == "counts":      # one count the replicas are rounded to already
+                q = np.where(q > 1.0 + 1e-6, q, 0.0)
             q = q if q.any() else None
         shaped = bool({f"{sensor}.adev", f"{sensor}.psd"} & fams)
         if q is not None:

@@ -2,9 +2,9 @@
 
 Per sensor: the spread within each static pose, the pose means against the model (the accelerometer's |a| - g,
 the gyro's calibrated rate), their scatter from pose to pose, the Allan deviation and the spectrum of the longest
-pose, the step between the stream's distinct values, the share of samples pinned at an extreme; per turn or
-motion the gyro's angle residual; and how the calibration's own standard deviations compare with the scatter of
-leave-one-pose-out refits. The same function runs on the real recording and on every replica, through the same
+pose, the step between the stream's distinct values (the grid's, where they lie on one), the share of samples
+pinned at an extreme; per turn or motion the gyro's angle residual; and how the calibration's own standard
+deviations compare with the scatter of leave-one-pose-out refits. The same function runs on the real recording and on every replica, through the same
 calibration, so a difference is the world's, not the pipeline's.
 """
 
@@ -23,6 +23,10 @@ from rig.session_data import SessionData
 AXES = "xyz"
 PSD_BANDS = 4
 LOO_POSES_MAX = 8
+# A grid fitted through thousands of printed values is known to ~1e-8 of its step, but two streams on one grid
+# printed with different roundings (mikoff's accelerometer: g to 5 decimals, then m/s^2 to 5) differ there: five
+# significant digits are what a step says, and all a twin can be asked to reproduce.
+STEP_DIGITS = 5
 
 
 def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dict[str, float]:
@@ -66,7 +70,7 @@ def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dic
             for (lo, hi), power in powers.items():
                 out[f"{sensor}.psd.{AXES[k]}[{lo:.3g}-{hi:.3g} Hz]"] = float(power[k])
             values, counts = _distinct(whole[:, k])      # one sort serves both
-            out[f"{sensor}.step.{AXES[k]}"] = _step(values)
+            out[f"{sensor}.step.{AXES[k]}"] = float(f"{_quantum(values, counts) or _step(values):.{STEP_DIGITS}g}")
             out[f"{sensor}.pinned.{AXES[k]}"] = _pinned(values, counts)
     gyro = rec.sensors.get("gyro")
     if gyro is not None:
@@ -99,21 +103,37 @@ def band_powers(x: np.ndarray, rate: float) -> dict[tuple[float, float], float |
     return out
 
 
-def value_step(x: np.ndarray) -> float:
-    """The step between a stream's distinct values (its quantum when it has one): the median of the smallest
-    gaps, robust to a few values off the grid."""
-    return _step(_distinct(x)[0])
+def quantum(x: np.ndarray, share: float = 0.9) -> float:
+    """The step of the grid a stream's values lie on (most of them: a few values off it, as a resampled row, do not
+    undo it), or 0.0 where they lie on none: a stream in full precision has a smallest step too, set by how densely
+    its values lie, which is no quantum."""
+    return _quantum(*_distinct(x), share)
 
 
-def on_grid(x: np.ndarray, step: float, share: float = 0.9) -> bool:
-    """Whether the stream's values lie on multiples of `step` from one of them (most of them: a few values off the
-    grid, as a resampled row, do not undo it): a quantum. A stream in full precision has a smallest step too, set
-    by how densely its values lie, which is no quantum."""
-    x = x[np.isfinite(x)]
-    if step <= 0 or x.size < 3:
-        return False
-    r = (x - x[0]) / step
-    return bool(np.mean(np.abs(r - np.round(r)) < 0.01) >= share)
+def _quantum(u: np.ndarray, n: np.ndarray, share: float = 0.9) -> float:
+    """`quantum` of the distinct values u, seen n times each.
+
+    The step is fitted to every distinct value, not read off the smallest gaps: a logger that prints counts times a
+    scale with d decimals (mikoff's MPU-9150 logs, 5) rounds each gap by up to 10^-d, and a step read to 1e-5 of
+    0.0048 misplaces the grid by several steps over the 4 000 between two faces. The gaps of 1 to 64 steps, summed
+    over their count of steps, telescope the rounding away; a least-squares line through the distinct values against
+    their step numbers then gives the step and the grid's origin (a value's distance from the line is its
+    distance from the grid)."""
+    q = _step(u)
+    if q <= 0:
+        return 0.0
+    for _ in range(3):
+        gaps = np.diff(u)
+        k = np.round(gaps / q)
+        whole = (k >= 1) & (k <= 64) & (np.abs(gaps / q - k) < 0.25)
+        if not whole.any():
+            return 0.0
+        q = float(gaps[whole].sum() / k[whole].sum())
+    steps = np.round((u - u[0]) / q)
+    centred = steps - steps.mean()
+    q = float(centred @ (u - u.mean()) / (centred @ centred)) if centred.any() else q
+    r = (u - u.mean()) / q - centred
+    return q if q > 0 and n[np.abs(r - np.round(r)) < 0.01].sum() >= share * n.sum() else 0.0
 
 
 def pinned_fraction(x: np.ndarray) -> float:

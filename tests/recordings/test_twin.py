@@ -14,7 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 from inject import inject  # noqa: E402
 from test_magnetometer_recordings import hand_session  # noqa: E402
-from test_unseen_recordings import G  # noqa: E402
+from test_unseen_recordings import G, recording  # noqa: E402
 
 from procedures.twin_bands import bands, default_replicas  # noqa: E402
 from procedures.twin_analysis import analyse_twin  # noqa: E402
@@ -98,6 +98,25 @@ def test_a_quantised_gyro_is_named_and_sized_blind():
     assert {f"gyro.step.{a}" for a in "xyz"} <= set(named[("quantisation", "gyro")]["brings_back"])
     s = report["summary"]
     assert s["inside_after"] > s["inside_before"] and s["inside_after"] >= 0.9 * s["statistics"]
+
+
+def test_counts_a_logger_printed_in_physical_units_are_named_quantisation_with_their_step():
+    """A logger that writes counts times its scale with 5 decimals (mikoff's MPU-9150 logs: 9.81/2048 m/s^2 and
+    2000/32768 deg/s a count): the step read off the smallest gaps (0.0048, to the print's 1e-5) put the grid
+    thousands of steps away off by several, so no quantum was found and the steps stayed unexplained on all five
+    units. The step is now fitted to every value."""
+    rec = recording(4, poses=20)
+    qa, qg = 9.81 / 2048, np.radians(2000 / 32768)
+    raw = {"accel": np.round(np.round(rec["accel"] / qa) * qa, 5), "gyro": np.round(np.round(rec["gyro"] / qg) * qg, 5)}
+    session = recording_session(np.round(rec["t"], 6), raw, units={"accel": "m/s^2", "gyro": "rad/s"},
+                                source="<printed counts>", gravity=G, sample_rate_hz=50.0)
+    report = analyse_twin(session, replicas=40, attribution_replicas=6)
+    named = {(c["effect"], c["sensor"]): c for c in report["causes"]}
+    assert set(named) == {("quantisation", "accel"), ("quantisation", "gyro")}, sorted(named)
+    assert abs(named[("quantisation", "accel")]["magnitude"] / qa - 1) < 0.04
+    assert abs(named[("quantisation", "gyro")]["magnitude"] / np.degrees(qg) - 1) < 0.04
+    for sensor in ("accel", "gyro"):
+        assert {f"{sensor}.step.{a}" for a in "xyz"} <= set(named[("quantisation", sensor)]["brings_back"])
 
 
 def test_a_g_sensitive_gyro_is_named_as_such_not_as_noise():
