@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.signal import lfilter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
@@ -195,8 +196,6 @@ def test_a_hand_that_holds_most_poses_leaves_the_quiet_ones_inside_after_the_ext
     """17 of 20 poses disturbed by a hand (each by its own amount, 1.5-5 times the sensor's noise), 3 left alone, as
     on mikoff's MPU-9150s: the sensor's own noise is the quiet poses', which the lower quartile of the spreads (a
     held pose's here) overstated, and all 18 of their spreads stayed below the band after the extension."""
-    from scipy.signal import lfilter
-
     rec = recording(1, poses=20)
     session = recording_session(rec["t"], {"accel": rec["accel"], "gyro": rec["gyro"]},
                                 units={"accel": "m/s^2", "gyro": "rad/s"}, source="<held>", gravity=G,
