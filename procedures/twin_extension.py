@@ -166,12 +166,14 @@ def _excess_scatter(real: dict, bands: dict, sensor: str, rec: RecordingCalibrat
 
 
 def _hold_not_still(session: SessionData, rec: RecordingCalibration, replay: Replay, floors: dict) -> Cause:
-    """Poses that move: each pose's spread beyond the quiet poses' (their lower quartile), per axis, as the wobble
-    of the gyro and the shake of the accelerometer. A replica's pose takes the disturbance of a pose drawn from the
+    """Poses that move: each pose's spread beyond the quiet poses' (`quiet_spread`), per axis, as the wobble of the
+    gyro and the shake of the accelerometer. A replica's pose takes the disturbance of a pose drawn from the
     recording's own (gyro and accelerometer together, per axis): the model is that every pose is disturbed by one
     random process, the recording's, not that a given pose was; so a pose's spread is judged against what any pose
-    of the recording shows, and a pose disturbed beyond all others stays outside. Sensors whose white noise no
-    other cause sets (`floors`) get the quiet poses' level here."""
+    of the recording shows, and a pose disturbed beyond all others stays outside. Between the poses there is none:
+    the motions are replayed from the recording's own gyro, which holds whatever the hand did in them (a wobble
+    added there too had put the MPU-9150s' carried-gravity errors and the gyro's leave-one-out scatter above the
+    recordings'). Sensors whose white noise no other cause sets (`floors`) get the quiet poses' level here."""
     quiet = {s: quiet_spread(session, rec, s) for s in ("gyro", "accel") if s in replay.sensors}
     excess = {s: np.array([_pose_excess(session, rec, s, p, quiet[s]) for p in rec.poses]) for s in quiet}
     spans = [(float(session.t[p.rows[0]]), float(session.t[p.rows[-1]])) for p in rec.poses]
@@ -182,7 +184,8 @@ def _hold_not_still(session: SessionData, rec: RecordingCalibration, replay: Rep
 
     def make(seed):
         drawn = np.random.default_rng(seed * 7 + 4).integers(len(spans), size=len(spans))
-        env = {s: tuple((a, b, g[j]) for (a, b), j in zip(spans, drawn)) for s, g in gains.items()}
+        env = {s: ((-np.inf, np.inf, np.zeros(3)),) + tuple((a, b, g[j]) for (a, b), j in zip(spans, drawn))
+               for s, g in gains.items()}
         noise = [ShapedNoise(s, taps=np.ones((3, 1)), std=w, seed=seed * 7 + 5 + 100_000 * (k + 1))
                  for k, (s, w) in enumerate(whites.items())]
         return noise + [HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=env["gyro"], seed=seed * 7 + 4)] \
