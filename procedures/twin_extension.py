@@ -93,7 +93,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
         still = _clean(y[longest.rows])
         q = None
         if f"{sensor}.step" in fams:
-            q = np.array([quantum(_clean(y)[:, k]) for k in range(3)])
+            q = np.array([quantum(column) for column in _clean(y).T])
             if replay.units[sensor] == "counts":      # one count the replicas are rounded to already
                 q = np.where(q > 1.0 + 1e-6, q, 0.0)
             q = q if q.any() else None

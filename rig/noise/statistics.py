@@ -4,8 +4,8 @@ Per sensor: the spread within each static pose, the pose means against the model
 the gyro's calibrated rate), their scatter from pose to pose, the Allan deviation and the spectrum of the longest
 pose, the step between the stream's distinct values (the grid's, where they lie on one), the share of samples
 pinned at an extreme; per turn or motion the gyro's angle residual; and how the calibration's own standard
-deviations compare with the scatter of leave-one-pose-out refits. The same function runs on the real recording and on every replica, through the same
-calibration, so a difference is the world's, not the pipeline's.
+deviations compare with the scatter of leave-one-pose-out refits. The same function runs on the real recording
+and on every replica, through the same calibration, so a difference is the world's, not the pipeline's.
 """
 
 from __future__ import annotations

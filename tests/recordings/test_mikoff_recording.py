@@ -52,13 +52,13 @@ def test_the_mpu9150_session_calibrates_beside_its_authors_method_and_gets_its_t
     assert families == {"accel", "gyro"}, families
     summary = twin["summary"]
     assert summary["inside_after"] >= summary["inside_before"], summary
-    # its logger printed counts times the MPU-9150's LSB at +/-16 g (9.81/2048 m/s^2) and +/-2000 deg/s (2000/32768
-    # deg/s) with 5 decimals: a quantum on both sensors, which the twin had not found (the steps were unexplained)
     # the hand's wobble is put into the replicas' poses only: the motions are the recording's own, wobble and all,
     # and one added there too put carried-gravity errors that were inside the band outside it
     motions = [n for n, v in twin["statistics"].items() if n.startswith("gyro.carry_error")
                and v["inside_before"] and not v["inside_after"]]
     assert motions == [], motions
+    # its logger printed counts times the MPU-9150's LSB at +/-16 g (9.81/2048 m/s^2) and +/-2000 deg/s (2000/32768
+    # deg/s) with 5 decimals: a quantum on both sensors, which the twin had not found (the steps were unexplained)
     steps = {c["sensor"]: c["magnitude"] for c in twin["causes"] if c["effect"] == "quantisation"}
     assert set(steps) == {"accel", "gyro"}, steps
     assert abs(steps["accel"] / (9.81 / 2048) - 1) < 0.02 and abs(steps["gyro"] / (2000 / 32768) - 1) < 0.02, steps
