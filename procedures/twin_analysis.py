@@ -10,7 +10,8 @@ from contextlib import nullcontext
 import numpy as np
 
 from procedures.twin_bands import band_chance, bands, default_replicas
-from procedures.twin_extension import Cause, family, outside, propose
+from procedures.twin_cause import Cause
+from procedures.twin_extension import family, outside, propose
 from procedures.twin_model import added_rate, heldout_change, model_causes
 from procedures.twin_replay import poses_alone, reconstruct, twin_view
 from procedures.twin_replicas import Background, ReplicaJob, replica_runs

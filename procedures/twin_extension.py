@@ -10,42 +10,21 @@ effects that bring it back alone (or all of them, when only together); one that 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
-from fixtures.world.effects.noise import (BiasInstability, HoldNotStill, Quantisation, RateRandomWalk, Saturation,
-                                          ShapedNoise)
+from fixtures.world.effects.noise import BiasInstability, Quantisation, RateRandomWalk, Saturation, ShapedNoise
 from procedures.twin_bands import band_chance
+from procedures.twin_cause import Cause
+from procedures.twin_hold import hold_not_still
+from procedures.twin_noise import pooled_noise, quiet_noise, sampled_rows
 from procedures.twin_replay import Replay
-from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.stats import holm
 from rig.noise.allan import allan_deviation, fit_noise
 from rig.noise.statistics import quantum
-from rig.effects import unit_for
 from rig.session_data import SessionData
 from rig.units import REPORT_UNITS
-
-SHAKE_TAU_S = 0.05        # a hand's tremor (8-12 Hz) and a soft mount's ringing, as a correlation time
-
-
-@dataclass
-class Cause:
-    effect: str                                    # the vocabulary's name (rig.effects), read from the world's term
-    sensor: str
-    magnitude: float                               # in the vocabulary's unit (`unit`)
-    params: dict
-    governs: tuple[str, ...]                       # statistic families it can move
-    make: Callable[[int], list]                    # the world's effects for a replica's seed
-    quiet: tuple[str, ...] = ()                    # sensors whose white noise it replaces
-    brings_back: list[str] = field(default_factory=list)
-    rate: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None   # rad/s it adds to the gyro at (t, f)
-
-    @property
-    def unit(self) -> str:
-        return unit_for(self.effect, self.sensor)
 
 
 def outside(real: dict, bands: dict) -> set[str]:
@@ -86,14 +65,14 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
     causes, floors = [], {}
     longest = max(rec.poses, key=lambda p: len(p.rows))
     fams = off_families(real, bands, off, replicas)
-    not_still = bool({"gyro.spread", "accel.spread"} & fams) and "gyro" in replay.sensors
+    not_still = bool({"gyro.spread", "accel.spread"} & fams & {f"{s}.spread" for s in replay.sensors})
     for sensor, model in replay.sensors.items():
         y = session.raw[sensor]
         scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT_UNITS[sensor][1]   # reported unit per raw unit
-        still = _clean(y[longest.rows])
+        still = sampled_rows(y[longest.rows])
         q = None
         if f"{sensor}.step" in fams:
-            q = np.array([quantum(column) for column in _clean(y).T])
+            q = np.array([quantum(column) for column in sampled_rows(y).T])
             if replay.units[sensor] == "counts":      # one count the replicas are rounded to already
                 q = np.where(q > 1.0 + 1e-6, q, 0.0)
             q = q if q.any() else None
@@ -143,13 +122,13 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
                                 {"K": (K * scale).tolist()}, (f"{sensor}.adev", mean_fam, f"{sensor}.bias_scatter"),
                                 lambda seed, s=sensor, K=K: [RateRandomWalk(s, K=K, seed=seed * 7 + 3)]))
         if f"{sensor}.pinned" in fams:
-            clean = _clean(y)
+            clean = sampled_rows(y)
             lo, hi = clean.min(axis=0), clean.max(axis=0)
             share = float(100 * np.mean((clean == lo) | (clean == hi)))
             causes.append(Cause(Saturation.name, sensor, share, {"low": lo.tolist(), "high": hi.tolist()},
                                 (f"{sensor}.pinned",), lambda seed, s=sensor, lo=lo, hi=hi: [Saturation(s, low=lo, high=hi)]))
     if not_still:
-        causes.append(_hold_not_still(session, rec, replay, floors))
+        causes.append(hold_not_still(session, rec, replay, floors))
     return causes
 
 
@@ -163,88 +142,6 @@ def _excess_scatter(real: dict, bands: dict, sensor: str, rec: RecordingCalibrat
             extra = real[name] ** 2 - bands[name][2] ** 2
             out[k] = math.sqrt(max(extra, 0.0)) / abs(H[k, k])
     return out
-
-
-def _hold_not_still(session: SessionData, rec: RecordingCalibration, replay: Replay, floors: dict) -> Cause:
-    """Poses that move: each pose's spread beyond the quiet poses' (`quiet_spread`), per axis, as the wobble of the
-    gyro and the shake of the accelerometer. A replica's pose takes the disturbance of a pose drawn from the
-    recording's own (gyro and accelerometer together, per axis): the model is that every pose is disturbed by one
-    random process, the recording's, not that a given pose was; so a pose's spread is judged against what any pose
-    of the recording shows, and a pose disturbed beyond all others stays outside. Between the poses there is none:
-    the motions are replayed from the recording's own gyro, which holds whatever the hand did in them (a wobble
-    added there too had put the MPU-9150s' carried-gravity errors and the gyro's leave-one-out scatter above the
-    recordings'). Sensors whose white noise no other cause sets (`floors`) get the quiet poses' level here."""
-    quiet = {s: quiet_spread(session, rec, s) for s in ("gyro", "accel") if s in replay.sensors}
-    excess = {s: np.array([_pose_excess(session, rec, s, p, quiet[s]) for p in rec.poses]) for s in quiet}
-    spans = [(float(session.t[p.rows[0]]), float(session.t[p.rows[-1]])) for p in rec.poses]
-    rms = {s: float(np.sqrt(np.mean(e.sum(axis=1)))) for s, e in excess.items()}
-    gains = {s: np.sqrt(3 * e) / rms[s] if rms[s] else np.zeros_like(e) for s, e in excess.items()}
-    whites = {s: quiet_noise(session, rec, s) for s in quiet if s not in floors}
-    rms_dps, shake = math.degrees(rms["gyro"]), rms.get("accel", 0.0)
-
-    def make(seed):
-        drawn = np.random.default_rng(seed * 7 + 4).integers(len(spans), size=len(spans))
-        env = {s: ((-np.inf, np.inf, np.zeros(3)),) + tuple((a, b, g[j]) for (a, b), j in zip(spans, drawn))
-               for s, g in gains.items()}
-        noise = [ShapedNoise(s, taps=np.ones((3, 1)), std=w, seed=seed * 7 + 5 + 100_000 * (k + 1))
-                 for k, (s, w) in enumerate(whites.items())]
-        return noise + [HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=env["gyro"], seed=seed * 7 + 4)] \
-            + ([HoldNotStill("accel", shake_rms=shake, tau_s=SHAKE_TAU_S, envelope=env["accel"], seed=seed * 7 + 4)]
-               if "accel" in env else [])
-    return Cause(HoldNotStill.name, "gyro", rms_dps,
-                 {"rms_dps": rms_dps, "shake_rms_mps2": shake,
-                  "per_pose_dps": dict(zip([p.name for p in rec.poses],
-                                           np.degrees(np.sqrt(excess["gyro"].sum(axis=1))).tolist())),
-                  "model": "each pose's disturbance, per axis, drawn from the recording's own poses"},
-                 ("gyro.spread", "accel.spread", "gyro.adev", "gyro.psd", "accel.adev", "accel.psd"), make,
-                 quiet=tuple(whites))
-
-
-def _pose_excess(session: SessionData, rec: RecordingCalibration, sensor: str, pose, quiet: np.ndarray) -> np.ndarray:
-    """Per axis, a pose's variance beyond the quiet level, in calibrated units squared."""
-    spread = _clean(session.raw[sensor][pose.rows]).std(axis=0, ddof=1)
-    return np.maximum(spread ** 2 - quiet ** 2, 0.0) * np.diag(rec.sensors[sensor].H) ** 2
-
-
-def quiet_spread(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
-    """Per axis, the spread of the quiet poses, raw units, rounding included: the median of the poses within twice
-    their sampling error (a white spread's, 1/sqrt(2n) of it) of the quietest. A hand can only add to the sensor's
-    own noise, and how many poses it leaves alone is the recording's: on mikoff's MPU-9150s 3-6 of 22, so their
-    lower quartile, the level taken before, was a held pose's and put the quiet poses below every replica."""
-    poses = [_clean(session.raw[sensor][p.rows]) for p in rec.poses]
-    spreads = np.array([v.std(axis=0, ddof=1) for v in poses])
-    error = 1.0 / np.sqrt(2.0 * np.array([len(v) for v in poses]))
-    out = np.zeros(3)
-    for k in range(3):
-        least = int(np.argmin(spreads[:, k]))
-        near = spreads[:, k] <= spreads[least, k] * (1.0 + 2.0 * np.sqrt(error[least] ** 2 + error ** 2))
-        out[k] = np.median(spreads[near, k])
-    return out
-
-
-def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None = None) -> np.ndarray:
-    """Per axis, the spread of the quieter poses (their lower quartile): the sensor's own noise, which the poses
-    where a hand shook cannot lower; ahead of the rounding (counts, or the step `q` of a quantised recording)."""
-    return _ahead_of_rounding(session, sensor, quiet_spread(session, rec, sensor), q)
-
-
-def pooled_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None) -> np.ndarray:
-    """Per axis, the noise pooled over the poses, ahead of the rounding."""
-    spreads = np.array([_clean(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
-    return _ahead_of_rounding(session, sensor, np.sqrt(np.mean(spreads ** 2, axis=0)), q)
-
-
-def _ahead_of_rounding(session: SessionData, sensor: str, spread: np.ndarray, q: np.ndarray | None) -> np.ndarray:
-    """The Gaussian noise that, rounded to the step (1 count, or `q`), shows `spread` (quantisation.noise_sigma)."""
-    if q is None and session.meta.get("units", {}).get(sensor, "counts") == "counts":
-        q = np.ones(3)
-    if q is None:
-        return spread
-    q = np.where(q > 0, q, 1.0)
-    sigma = noise_sigma((spread / q)[None, :]) * q
-    # where the noise does not dither the step (spread below half a step), the spread of a pose depends on where
-    # its value sits on the grid, and inverting it is ill-posed: the spread itself is the better guess
-    return np.where(spread >= 0.5 * q, sigma, spread)
 
 
 def spectral_taps(x: np.ndarray, rate_hz: float, length: int = 64) -> np.ndarray:
@@ -261,7 +158,3 @@ def spectral_taps(x: np.ndarray, rate_hz: float, length: int = 64) -> np.ndarray
 
 def _tau(name: str) -> float:
     return float(name.split("@")[1].rstrip("s")) if "@" in name else 0.0
-
-
-def _clean(v: np.ndarray) -> np.ndarray:
-    return v[~np.isnan(v).any(axis=1)]

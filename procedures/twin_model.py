@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 
 from fixtures.world import EFFECTS
-from procedures.twin_extension import Cause
+from procedures.twin_cause import Cause
 from rig.calibration.heldout import heldout_scores
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.recording import recording_tests

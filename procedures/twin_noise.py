@@ -1,7 +1,8 @@
 """The white noise and rounding of a twin's replicas, as the recording shows them: each sensor's noise level pooled
 over the recording's static poses, how many degrees of freedom that estimate has, the level one replica draws
-from it, and the decimals a recording in physical units was printed with. Apart from the replay's motion
-(`procedures.twin_replay`): these say how the recording's noise looks, not where the fixture was."""
+from it, the level of the poses a hand left alone, and the decimals a recording in physical units was printed
+with. Apart from the replay's motion (`procedures.twin_replay`): these say how the recording's noise looks, not
+where the fixture was."""
 
 from __future__ import annotations
 
@@ -55,6 +56,57 @@ def printed_decimals(session: SessionData, sensors: Iterable[str]) -> dict[str, 
     units = session.meta.get("units", {})
     found = {s: written_decimals(session.raw[s]) for s in sensors if units.get(s, "counts") != "counts"}
     return {s: d for s, d in found.items() if d is not None}
+
+
+def quiet_poses(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
+    """(poses, 3) which poses are quiet on each axis: those within twice their sampling error (a white spread's,
+    1/sqrt(2n) of it) of the quietest. A hand can only add to the sensor's own noise, and how many poses it leaves
+    alone is the recording's: on mikoff's MPU-9150s 3-6 of 22, so their lower quartile, the level taken before,
+    was a held pose's and put the quiet poses below every replica."""
+    spreads, n = _pose_spreads(session, rec, sensor)
+    error = 1.0 / np.sqrt(2.0 * n)
+    least = np.argmin(spreads, axis=0)
+    bound = spreads[least, range(3)] * (1.0 + 2.0 * np.sqrt(error[least][None, :] ** 2 + error[:, None] ** 2))
+    return spreads <= bound
+
+
+def quiet_spread(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
+    """Per axis, the spread of the quiet poses (`quiet_poses`), raw units, rounding included: their variances pooled
+    by degrees of freedom, the common level's best estimate. Their median had let a short pose's spread stand for a
+    long rest's: on the MPU-6050 the 36 s rest's short-tau Allan deviations fell below every replica."""
+    spreads, n = _pose_spreads(session, rec, sensor)
+    near = quiet_poses(session, rec, sensor)
+    return np.sqrt(np.sum(near * (n[:, None] - 1) * spreads ** 2, axis=0) / np.sum(near * (n[:, None] - 1), axis=0))
+
+
+def _pose_spreads(session: SessionData, rec: RecordingCalibration, sensor: str) -> tuple[np.ndarray, np.ndarray]:
+    poses = [sampled_rows(session.raw[sensor][p.rows]) for p in rec.poses]
+    return np.array([v.std(axis=0, ddof=1) for v in poses]), np.array([len(v) for v in poses])
+
+
+def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None = None) -> np.ndarray:
+    """Per axis, the spread of the quieter poses (their lower quartile): the sensor's own noise, which the poses
+    where a hand shook cannot lower; ahead of the rounding (counts, or the step `q` of a quantised recording)."""
+    return _ahead_of_rounding(session, sensor, quiet_spread(session, rec, sensor), q)
+
+
+def pooled_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None) -> np.ndarray:
+    """Per axis, the noise pooled over the poses, ahead of the rounding."""
+    spreads = np.array([sampled_rows(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
+    return _ahead_of_rounding(session, sensor, np.sqrt(np.mean(spreads ** 2, axis=0)), q)
+
+
+def _ahead_of_rounding(session: SessionData, sensor: str, spread: np.ndarray, q: np.ndarray | None) -> np.ndarray:
+    """The Gaussian noise that, rounded to the step (1 count, or `q`), shows `spread` (quantisation.noise_sigma)."""
+    if q is None and session.meta.get("units", {}).get(sensor, "counts") == "counts":
+        q = np.ones(3)
+    if q is None:
+        return spread
+    q = np.where(q > 0, q, 1.0)
+    sigma = noise_sigma((spread / q)[None, :]) * q
+    # where the noise does not dither the step (spread below half a step), the spread of a pose depends on where
+    # its value sits on the grid, and inverting it is ill-posed: the spread itself is the better guess
+    return np.where(spread >= 0.5 * q, sigma, spread)
 
 
 def sampled_rows(v: np.ndarray) -> np.ndarray:

@@ -16,6 +16,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_unseen_recordings import gyro_not_calibrated, one_clear_line, rig  # noqa: E402
 
+from procedures.twin_analysis import analyse_twin  # noqa: E402
+from rig.io.session_csv import read_session  # noqa: E402
+
 DATA = Path(__file__).resolve().parents[1] / "data" / "mpu6050-tomisuarez2"
 
 
@@ -66,3 +69,33 @@ def test_the_mpu6050_session_imports_calibrates_its_accelerometer_and_names_why_
     families = {s["family"] for s in report["twin"]["statistics"].values()}
     assert families and all(f.startswith("accel.") for f in families), families
     assert {"accel.spread", "accel.norm_residual", "accel.loo_scatter_to_predicted"} <= families, families
+
+    # Its poses a hand held: named on the accelerometer, at the rate at which it sees gravity turn. The gyro, at its
+    # authors' published scales, sees the same hand turn the unit across gravity below 2 Hz (the accelerometer's
+    # band) at a rate this must agree with to a factor of 2 (a hand's linear acceleration reads as a turn too:
+    # 0.59 against 0.41 deg/s, measured 2026-11-27).
+    held = [c for c in report["twin"]["causes"] if c["effect"] == "hold_not_still"]
+    assert [c["sensor"] for c in held] == ["accel"], [(c["effect"], c["sensor"]) for c in report["twin"]["causes"]]
+    gyro = np.loadtxt(DATA / "example_data_calibration.csv", delimiter=",", skiprows=5)[:, 3:6]
+    seen = gyro_turn_across_gravity(gyro * np.degrees(np.loadtxt(DATA / "params_gyro.csv")[6:9]), y, poses)
+    assert 0.5 < held[0]["magnitude"] / seen < 2.0, (held[0]["magnitude"], seen)
+
+    # At the default replicas, the issue's target: 90 % of the statistics inside after the extension. 70 % were while
+    # the held poses went unnamed, 88 % with the sensor's own noise the quiet poses' median (a short pose's level,
+    # above the 36 s rest's: its short-tau Allan deviations fell below every replica).
+    twin = analyse_twin(read_session(tmp_path / "s"))
+    assert twin["summary"]["inside_after"] >= 0.9 * twin["summary"]["statistics"], twin["summary"]
+
+
+def gyro_turn_across_gravity(rate_dps: np.ndarray, accel: np.ndarray, poses: list[np.ndarray]) -> float:
+    """RMS over the poses of the gyro's rate across gravity below 2 Hz (its noise there, 0.02 deg/s, left in)."""
+    from scipy.signal import butter, filtfilt
+
+    b, a = butter(2, 2.0, fs=100.0)
+    turned = []
+    for rows in poses:
+        w = rate_dps[rows] - rate_dps[rows].mean(axis=0)
+        up = accel[rows].mean(axis=0) / np.linalg.norm(accel[rows].mean(axis=0))
+        across = filtfilt(b, a, w - np.outer(w @ up, up), axis=0)
+        turned.append(float(np.mean(np.sum(across ** 2, axis=1))))
+    return float(np.sqrt(np.mean(turned)))

@@ -216,6 +216,39 @@ def test_a_hand_that_holds_most_poses_leaves_the_quiet_ones_inside_after_the_ext
     assert len(left) <= 3, left          # 18 spreads, 2/41 each by chance
 
 
+def test_poses_a_hand_sways_leave_the_gyro_out_and_are_named_not_still_on_the_accelerometer_at_their_rate():
+    """Every pose but the rest swayed by a hand, gravity turning at 1 deg/s RMS (0.5-1 Hz, about a random axis across
+    it), as the MPU-6050's poses: the gyro sees them turn and is not analysed, and the accelerometer's twin names
+    hold_not_still on the accelerometer, its rate within 20 % of the sway's, and holds the swayed poses' spreads.
+    Before, a poses-alone twin could not name it (its size was the gyro's) and the spreads stayed unexplained."""
+    rec = recording(2, poses=16)
+    session = recording_session(rec["t"], {"accel": rec["accel"], "gyro": rec["gyro"]},
+                                units={"accel": "m/s^2", "gyro": "rad/s"}, source="<swayed>", gravity=G,
+                                sample_rate_hz=50.0)
+    rng = np.random.default_rng(3)
+    for pose in calibrate_recording(session).poses[1:]:
+        up = session.raw["accel"][pose.rows].mean(axis=0)
+        axis = np.cross(up, rng.normal(size=3))
+        axis /= np.linalg.norm(axis)
+        f, phase = rng.uniform(0.5, 1.0), rng.uniform(0.0, 2 * np.pi)
+        amplitude = np.sqrt(2) * np.radians(1.0) / (2 * np.pi * f)
+        t = session.t[pose.rows]
+        angle = amplitude * np.sin(2 * np.pi * f * t + phase)
+        session.raw["accel"][pose.rows] += np.cross(session.raw["accel"][pose.rows], np.outer(angle, axis))
+        session.raw["gyro"][pose.rows] += np.outer(2 * np.pi * f * amplitude * np.cos(2 * np.pi * f * t + phase), axis)
+    report = analyse_twin(session, replicas=30, attribution_replicas=6)
+    assert set(report["not_analysed"]) == {"gyro"}, report["not_analysed"]
+    held = [c for c in report["causes"] if c["effect"] == "hold_not_still"]
+    assert [c["sensor"] for c in held] == ["accel"], [(c["effect"], c["sensor"]) for c in report["causes"]]
+    poses = held[0]["params"]["per_pose_mps2"]
+    truth = 1.0 * np.sqrt((len(poses) - 1) / len(poses))              # the rest (the first pose) was not swayed
+    assert abs(held[0]["magnitude"] / truth - 1) < 0.2, (held[0]["magnitude"], truth)
+    s = report["summary"]
+    spreads = [n for n in s["outside_before"] if n.startswith("accel.spread") and "[static 0]" not in n]
+    assert len(spreads) >= 10, s["outside_before"]
+    assert len(set(spreads) & set(s["outside_after"])) <= 2, s["outside_after"]
+
+
 def test_ctrl_c_during_the_replicas_ends_the_twin_with_one_line_and_no_worker_left(tmp_path):
     """Ctrl-C reaches the whole process group, the replicas' forked workers too: they leave it to the rig process,
     which ends its pools and exits 130 with one line; before, every worker printed its KeyboardInterrupt
