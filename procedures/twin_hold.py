@@ -46,18 +46,20 @@ def hold_not_still(session: SessionData, rec: RecordingCalibration, replay: Repl
                for s, g in gains.items()}
         noise = [ShapedNoise(s, taps=np.ones((3, 1)), std=w, seed=seed * 7 + 5 + 100_000 * (k + 1))
                  for k, (s, w) in enumerate(whites.items())]
-        return noise + ([HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=env["gyro"], seed=seed * 7 + 4)]
-                        if "gyro" in env else []) \
-            + ([HoldNotStill("accel", shake_rms=shake, tau_s=SHAKE_TAU_S, envelope=env["accel"], seed=seed * 7 + 4)]
-               if "accel" in env else [])
+        held = [HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=env["gyro"], seed=seed * 7 + 4)
+                ] if "gyro" in env else []
+        if "accel" in env:
+            held.append(HoldNotStill("accel", shake_rms=shake, tau_s=SHAKE_TAU_S, envelope=env["accel"],
+                                     seed=seed * 7 + 4))
+        return noise + held
     per_pose = {s: dict(zip([p.name for p in rec.poses], np.sqrt(e.sum(axis=1)).tolist())) for s, e in excess.items()}
     seen_by = "gyro" if "gyro" in quiet else "accel"
     return Cause(HoldNotStill.name, seen_by, rms_dps,
                  {"rms_dps": rms_dps, "shake_rms_mps2": shake,
                   "rate_from": "the gyro" if seen_by == "gyro" else
-                  f"the accelerometer: the rate at which gravity turns below {TILT_BAND_HZ:g} Hz, a lower bound (a "
-                  "turn about gravity, and a faster one, are not seen); the replicas carry the disturbance as the "
-                  "accelerometer shows it",
+                  f"the accelerometer: the rate at which it sees gravity turn below {TILT_BAND_HZ:g} Hz (a turn "
+                  "about gravity, or a faster one, is not seen; a linear acceleration of the hand reads as a turn); "
+                  "the replicas carry the disturbance as the accelerometer shows it",
                   "per_pose_dps": {name: math.degrees(v) for name, v in per_pose.get("gyro", {}).items()},
                   "per_pose_mps2": per_pose.get("accel", {}),
                   "model": "each pose's disturbance, per axis, drawn from the recording's own poses"},

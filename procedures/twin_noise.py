@@ -84,9 +84,10 @@ def _pose_spreads(session: SessionData, rec: RecordingCalibration, sensor: str) 
     return np.array([v.std(axis=0, ddof=1) for v in poses]), np.array([len(v) for v in poses])
 
 
-def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None = None) -> np.ndarray:
-    """Per axis, the spread of the quieter poses (their lower quartile): the sensor's own noise, which the poses
-    where a hand shook cannot lower; ahead of the rounding (counts, or the step `q` of a quantised recording)."""
+def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str,
+                q: np.ndarray | None = None) -> np.ndarray:
+    """Per axis, the quiet poses' spread (`quiet_spread`): the sensor's own noise, which the poses where a hand shook
+    cannot lower; ahead of the rounding (counts, or the step `q` of a quantised recording)."""
     return _ahead_of_rounding(session, sensor, quiet_spread(session, rec, sensor), q)
 
 
