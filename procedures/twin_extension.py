@@ -5,6 +5,8 @@ noise and recording effect of the vocabulary (effects.md, "Noise and recording e
 recording alone, by its own estimator, and proposed when a statistic it governs is out of band. The replicas are
 run again with all proposed effects, and with each alone: a statistic that comes back inside is named by the
 effects that bring it back alone (or all of them, when only together); one that stays outside is `unexplained`.
+The poses a hand held are `procedures.twin_hold`'s; a spectrum is another colour only beyond what white noise's own
+estimate shows (`white_peak_chance`).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from rig.units import REPORT_UNITS
 
 
 CHANCE_SAMPLES = 16_384     # white noise simulated for `white_peak_chance`: bounded time and memory on a long pose
+
 
 def outside(real: dict, bands: dict) -> set[str]:
     out = set()
