@@ -63,11 +63,7 @@ def quiet_poses(session: SessionData, rec: RecordingCalibration, sensor: str) ->
     1/sqrt(2n) of it) of the quietest. A hand can only add to the sensor's own noise, and how many poses it leaves
     alone is the recording's: on mikoff's MPU-9150s 3-6 of 22, so their lower quartile, the level taken before,
     was a held pose's and put the quiet poses below every replica."""
-    spreads, n = _pose_spreads(session, rec, sensor)
-    error = 1.0 / np.sqrt(2.0 * n)
-    least = np.argmin(spreads, axis=0)
-    bound = spreads[least, range(3)] * (1.0 + 2.0 * np.sqrt(error[least][None, :] ** 2 + error[:, None] ** 2))
-    return spreads <= bound
+    return _quiet(*_pose_spreads(session, rec, sensor))
 
 
 def quiet_spread(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:
@@ -75,13 +71,20 @@ def quiet_spread(session: SessionData, rec: RecordingCalibration, sensor: str) -
     by degrees of freedom, the common level's best estimate. Their median had let a short pose's spread stand for a
     long rest's: on the MPU-6050 the 36 s rest's short-tau Allan deviations fell below every replica."""
     spreads, n = _pose_spreads(session, rec, sensor)
-    near = quiet_poses(session, rec, sensor)
+    near = _quiet(spreads, n)
     return np.sqrt(np.sum(near * (n[:, None] - 1) * spreads ** 2, axis=0) / np.sum(near * (n[:, None] - 1), axis=0))
 
 
 def _pose_spreads(session: SessionData, rec: RecordingCalibration, sensor: str) -> tuple[np.ndarray, np.ndarray]:
     poses = [sampled_rows(session.raw[sensor][p.rows]) for p in rec.poses]
     return np.array([v.std(axis=0, ddof=1) for v in poses]), np.array([len(v) for v in poses])
+
+
+def _quiet(spreads: np.ndarray, n: np.ndarray) -> np.ndarray:
+    error = 1.0 / np.sqrt(2.0 * n)
+    least = np.argmin(spreads, axis=0)
+    bound = spreads[least, range(3)] * (1.0 + 2.0 * np.sqrt(error[least][None, :] ** 2 + error[:, None] ** 2))
+    return spreads <= bound
 
 
 def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str,
@@ -93,7 +96,7 @@ def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str,
 
 def pooled_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None) -> np.ndarray:
     """Per axis, the noise pooled over the poses, ahead of the rounding."""
-    spreads = np.array([sampled_rows(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses])
+    spreads, _ = _pose_spreads(session, rec, sensor)
     return _ahead_of_rounding(session, sensor, np.sqrt(np.mean(spreads ** 2, axis=0)), q)
 
 
