@@ -7,8 +7,9 @@ score of ours against a peer's on the peer's own data.
   nominal axis against the known angle (Ferraris: 360 deg).
 * Gyroscope, leave one motion out (imu_tk's criterion): refit without the motion between poses i and i+1, then
   the angle between pose i's gravity direction carried across it by the calibrated gyro and pose i+1's.
-* Rests no segment names (a hand puts the unit down again before and after a turn): the norm error there is
-  held out for any calibration fitted on the segments, so it scores a peer that cannot refit without a face.
+* Rests no segment names (a hand puts the unit down again before and after a turn, `rig.calibration.rests`): the
+  norm error there, and the gravity carried across the motions into and out of them, are held out for any
+  calibration fitted on the segments, so they score a peer that cannot refit without a face or a turn.
 
 A refit that leaves out a turn or motion starts its gyro fit at the fit on everything (`gyro_start`) rather than
 at its own coarse search: the same optimum, the left-out angles within 2.2e-6 deg on the Xsens and 4e-7 deg on
@@ -31,15 +32,12 @@ import numpy as np
 
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.calibration.recording_fits import carried_errors
+from rig.calibration.rests import rest_motions, unlabelled_rests
 from rig.calibration.result import TriadCalibration
-from rig.calibration.static_detect import moving_variance_norm, window_samples
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream, SessionData, filled
 
 FORMAT = "rig-heldout/1"
-REST_WINDOW_S = 0.5
-REST_K = 6.0                  # imu_tk's chosen threshold multiplier on its Xsens data
-REST_MIN_S = 1.0
 Calibrate = Callable[..., RecordingCalibration]
 
 
@@ -53,6 +51,7 @@ class Scores:
     carry_error_deg: list[float | None]
     rest_rms: list[float] = field(default_factory=list)          # m/s^2, at rests no segment names
     rest_mean_error: list[float] = field(default_factory=list)
+    rest_carry_error_deg: list[float] = field(default_factory=list)  # motions into and out of those rests
     notes: list[str] = field(default_factory=list)
     format: str = FORMAT
 
@@ -63,7 +62,8 @@ class Scores:
             return {"rms": float(np.sqrt(np.mean(v ** 2))) if v.size else None, "n": int(v.size), "of": len(values)}
         return {"accel_pose_rms": rms(self.pose_rms), "accel_pose_mean_error": rms(self.pose_mean_error),
                 "gyro_turn_deg": rms(self.turn_error_deg), "gyro_carry_deg": rms(self.carry_error_deg),
-                "accel_rest_rms": rms(self.rest_rms), "accel_rest_mean_error": rms(self.rest_mean_error)}
+                "accel_rest_rms": rms(self.rest_rms), "accel_rest_mean_error": rms(self.rest_mean_error),
+                "gyro_rest_carry_deg": rms(self.rest_carry_error_deg)}
 
 
 def scoring_layout(session: SessionData, calibrate: Calibrate = calibrate_recording
@@ -103,13 +103,14 @@ def turn_error_deg(session: SessionData, gyro: np.ndarray, turn) -> float:
     return float(np.degrees((w[:-1] * np.diff(t)[:, None]).sum(axis=0) @ turn.axis - turn.angle_rad))
 
 
-def carry_error_deg(session: SessionData, cal: dict[str, np.ndarray], a, b) -> float:
-    """Angle between pose a's gravity direction carried by the calibrated gyro to pose b and pose b's."""
+def carry_error_deg(session: SessionData, cal: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray) -> float:
+    """Angle between the gravity direction of the still rows a, carried by the calibrated gyro to the still rows b
+    after them, and b's."""
     g = []
-    for p in (a, b):
-        m = np.nanmean(cal["accel"][p.rows], axis=0)
+    for rows in (a, b):
+        m = np.nanmean(cal["accel"][rows], axis=0)
         g.append(m / np.linalg.norm(m))
-    idx = np.arange(a.rows[-1], b.rows[0] + 1)
+    idx = np.arange(a[-1], b[0] + 1)
     w = cal["gyro"][idx]
     ok = ~np.isnan(w).any(axis=1)
     stream = MoveStream(0, session.t[idx][ok], w[ok], np.eye(3), np.eye(3))
@@ -120,43 +121,15 @@ def score_series(session: SessionData, rec: RecordingCalibration, cal: dict[str,
     """A fixed calibration (its calibrated series) scored on every pose, turn and motion of `rec`: in-sample for
     whatever that calibration was fitted on."""
     errors = [pose_errors(cal["accel"], p.rows, session.gravity) for p in rec.poses]
-    rests = [pose_errors(cal["accel"], rows, session.gravity) for rows in unlabelled_rests(session, rec)]
+    rest_rows = unlabelled_rests(session, rec)
+    rests = [pose_errors(cal["accel"], rows, session.gravity) for rows in rest_rows]
     has_gyro = "gyro" in cal
     return Scores([e[0] for e in errors], [e[1] for e in errors],
                   [turn_error_deg(session, cal["gyro"], t) if has_gyro else None for t in rec.turns],
-                  [carry_error_deg(session, cal, rec.poses[i], rec.poses[j]) if has_gyro else None
-                   for i, j in rec.carries], [e[0] for e in rests], [e[1] for e in rests])
-
-
-def unlabelled_rests(session: SessionData, rec: RecordingCalibration, k: float = REST_K) -> list[np.ndarray]:
-    """Rows of the rests outside every segment: samples whose windows of `REST_WINDOW_S` are as quiet as the
-    named poses' (accelerometer and, where recorded, gyroscope variance below k times the median over the poses:
-    imu_tk's detector with the poses as the quiet reference; the gyro sees a turn about the vertical that the
-    accelerometer does not), touching no segment (a rest that runs into a named pose is that pose's placement), at
-    least `REST_MIN_S` long after a quarter window is trimmed from each end (the hand settling)."""
-    if not rec.poses:
-        return []
-    win = window_samples(session.t, REST_WINDOW_S)
-    if win >= len(session.t):
-        return []
-    quiet = np.ones(len(session.t), dtype=bool)
-    for sensor in ("accel", "gyro"):
-        if sensor in session.raw:
-            y = session.raw[sensor]
-            level = float(np.median([np.linalg.norm(np.nanvar(y[p.rows], axis=0, ddof=1)) for p in rec.poses]))
-            quiet &= np.nan_to_num(moving_variance_norm(y, win), nan=np.inf) < k * level
-    named = np.zeros(len(session.t), dtype=bool)
-    for seg in session.meta.get("segments") or []:
-        named |= (session.t >= seg["t0"]) & (session.t <= seg["t1"])
-    edges = np.diff(np.concatenate([[0], quiet.astype(np.int8), [0]]))
-    out = []
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1):
-        if named[a:b + 1].any():
-            continue
-        a, b = a + win // 4, b - win // 4
-        if b > a and session.t[b] - session.t[a] >= REST_MIN_S:
-            out.append(np.arange(a, b + 1))
-    return out
+                  [carry_error_deg(session, cal, rec.poses[i].rows, rec.poses[j].rows) if has_gyro else None
+                   for i, j in rec.carries], [e[0] for e in rests], [e[1] for e in rests],
+                  [carry_error_deg(session, cal, a, b) for a, b in rest_motions(session, rec, rest_rows)]
+                  if has_gyro else [])
 
 
 def heldout_scores(session: SessionData, calibrate: Calibrate = calibrate_recording) -> tuple[Scores, Scores]:
@@ -167,7 +140,8 @@ def heldout_scores(session: SessionData, calibrate: Calibrate = calibrate_record
     inside = score_series(laid, full, series(laid, full.sensors))
     accel_only = copy.copy(laid)
     accel_only.raw = {s: y for s, y in laid.raw.items() if s != "gyro"}      # the accelerometer's fit needs no gyro
-    out = Scores([], [], [], [], inside.rest_rms, inside.rest_mean_error)     # no segment fitted the rests
+    out = Scores([], [], [], [], inside.rest_rms, inside.rest_mean_error,     # no segment fitted the rests
+                 inside.rest_carry_error_deg)
     for i, pose in enumerate(full.poses):
         sensors = _refit(calibrate, accel_only, {"poses": [i]}, f"pose {pose.name}", out.notes)
         rms, mean = pose_errors(series(laid, sensors)["accel"], pose.rows, laid.gravity) if sensors else (None, None)
@@ -181,8 +155,8 @@ def heldout_scores(session: SessionData, calibrate: Calibrate = calibrate_record
     for c, (i, j) in enumerate(full.carries):
         sensors = _refit(calibrate, laid, {"carries": [c]}, f"motion {full.poses[i].name}->{full.poses[j].name}",
                          out.notes, from_full_fit)
-        out.carry_error_deg.append(carry_error_deg(laid, series(laid, sensors), full.poses[i], full.poses[j])
-                                   if sensors else None)
+        a, b = full.poses[i].rows, full.poses[j].rows
+        out.carry_error_deg.append(carry_error_deg(laid, series(laid, sensors), a, b) if sensors else None)
     return out, inside
 
 

@@ -148,6 +148,7 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     if change:
         b, a = change["before"], change["after"]
         for key, what in (("gyro_carry_deg", "gravity carried across a left-out motion"),
+                          ("gyro_rest_carry_deg", "gravity carried into and out of the rests no segment names"),
                           ("gyro_turn_deg", "a left-out turn")):
             if b[key]["rms"] is not None and a[key]["rms"] is not None:
                 click.echo(f"held out, {what}: {b[key]['rms']:.3f} deg RMS before, {a[key]['rms']:.3f} deg with "

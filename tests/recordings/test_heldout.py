@@ -16,13 +16,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 from ferraris_synth import G, generate  # noqa: E402
 from paths import SHARED  # noqa: E402
 
-from rig.calibration.heldout import (heldout_scores, score_series, scoring_layout, series,  # noqa: E402
-                                     unlabelled_rests)
+from rig.calibration.heldout import heldout_scores, score_series, scoring_layout, series  # noqa: E402
 from rig.calibration.recording import RecordingCalibration, calibrate_recording  # noqa: E402
 from rig.calibration.recording_fits import turn_angle  # noqa: E402
 from rig.calibration.recording_gyro import summed_rate  # noqa: E402
-from rig.calibration.segments import segments_of  # noqa: E402
+from rig.calibration.rests import rest_motions, unlabelled_rests  # noqa: E402
 from rig.calibration.result import TriadCalibration  # noqa: E402
+from rig.calibration.segments import segments_of  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 
 FERRARIS = SHARED / "data" / "imucal-ferraris"
@@ -58,6 +58,26 @@ def test_the_rests_no_segment_names_are_found_and_held_out():
         assert end < session.t[rows[0]] < end + 0.5 and session.t[rows[-1]] - session.t[rows[0]] > 1.0
     scores = score_series(session, rec, series(session, truth_sensors(truth)))
     assert max(scores.rest_rms) < 1.5 * NOISE
+
+
+def test_a_motion_into_or_out_of_a_rest_is_scored_held_out_and_a_turn_between_two_rests_is_not():
+    """Without its segment, the turn about y between the rests after the x and y turns is a motion neither
+    calibration fitted: the gravity carried across it is scored, under ours from the fit on everything. The turn
+    about x, still a segment, lies between the last face and the first rest: that pair is no rest motion."""
+    session, truth = generate(4)
+    session.meta = {**session.meta, "segments": [s for s in session.meta["segments"] if s["name"] != "y_rot"]}
+    rec = calibrate_recording(session)
+    rests = unlabelled_rests(session, rec)
+    motions = rest_motions(session, rec, rests)
+    assert len(rests) == 3 and len(motions) == 1
+    assert motions[0][0] is rests[0] and motions[0][1] is rests[1]
+    right = score_series(session, rec, series(session, truth_sensors(truth)))
+    wrong = score_series(session, rec, series(session, truth_sensors(truth, gyro_scale=1.01)))
+    assert right.rest_carry_error_deg[0] < 0.05
+    assert wrong.rest_carry_error_deg[0] == pytest.approx(0.01 * truth.turn_angle_deg[1], rel=0.05)
+    held, inside = heldout_scores(session)
+    assert held.rest_carry_error_deg == inside.rest_carry_error_deg
+    assert held.summary()["gyro_rest_carry_deg"]["n"] == 1 and held.rest_carry_error_deg[0] < 0.3
 
 
 def test_held_out_predictions_are_the_refits_predictions():
