@@ -18,6 +18,7 @@ from procedures.twin_replicas import Background, ReplicaJob, replica_runs
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.calibration.threads import one_blas_thread
 from rig.noise.statistics import recording_statistics
+from rig.noise.still_log import is_still_log, still_log_calibration
 from rig.session_data import SessionData
 
 SCHEMA = "rig-twin/1"
@@ -39,13 +40,14 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     own tests find (the noise is proposed against what those leave), then all causes together beside each cause
     alone (which statistics it brings back). The held-out refits run beside them."""
     t0 = time.perf_counter()
-    rec = calibrate_recording(session)
+    calibrate = still_log_calibration if is_still_log(session) else calibrate_recording
+    rec = calibrate(session)
     view = twin_view(session, rec)
     not_analysed = dict(rec.refused)           # a sensor that cannot be calibrated (the gyro of hand-held poses)
     if not_analysed:
         view = poses_alone(view, rec, set(not_analysed))
     if view is not session:                    # the poses it found, now named; or a sensor left out
-        rec = calibrate_recording(view)
+        rec = calibrate(view)
     real = recording_statistics(view, rec)
     replay = reconstruct(view, rec)
     seeds = list(range(seed * 10_000, seed * 10_000 + replicas))
@@ -77,6 +79,9 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     still = outside(real, after)
     return {
         "schema": SCHEMA, "session": session.source, "replicas": replicas, "replicas_failed": failed + failed_after,
+        "replayed": ("one pose held (a still log), in the units it was recorded in"
+                     if calibrate is still_log_calibration else "its poses alone" if not_analysed
+                     else "its poses and motions"),
         "band": "1-99 % of the replicas, as order statistics (the k-th smallest to the k-th largest)",
         "band_chance": band_chance(replicas),          # of a statistic the twin gets right falling outside it
         "summary": {"statistics": len(before), "inside_before": len(before) - len(off),

@@ -23,8 +23,9 @@ class Cause:
     quiet: tuple[str, ...] = ()                    # sensors whose white noise it replaces
     brings_back: list[str] = field(default_factory=list)
     rate: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None   # rad/s it adds to the gyro at (t, f)
+    base_unit: str | None = None                   # the sensor's unit where no scale gives the vocabulary's
 
     @property
     def unit(self) -> str:
-        return unit_for(self.effect, self.sensor)
+        return unit_for(self.effect, self.sensor, self.base_unit)
 

@@ -26,6 +26,7 @@ from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.stats import holm
 from rig.noise.allan import allan_deviation, fit_noise
 from rig.noise.statistics import quantum
+from rig.noise.still_log import REPORT_UNIT_KEY
 from rig.session_data import SessionData
 from rig.units import REPORT_UNITS
 
@@ -71,8 +72,11 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
     causes, floors = [], {}
     longest = max(rec.poses, key=lambda p: len(p.rows))
     fams = off_families(real, bands, off, replicas)
-    not_still = bool({"gyro.spread", "accel.spread"} & fams & {f"{s}.spread" for s in replay.sensors})
+    # a hand's disturbance shows against the poses it left alone: one pose (a still log) has none to compare
+    spreads_off = {"gyro.spread", "accel.spread"} & fams & {f"{s}.spread" for s in replay.sensors}
+    not_still = len(rec.poses) > 1 and bool(spreads_off)
     for sensor, model in replay.sensors.items():
+        first = len(causes)
         y = session.raw[sensor]
         scale = np.abs(np.diag(rec.sensors[sensor].H)) / REPORT_UNITS[sensor][1]   # reported unit per raw unit
         still = sampled_rows(y[longest.rows])
@@ -127,7 +131,8 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
         if f"{sensor}.adev" in fams and long_off and terms.K > 0:
             K = np.array([fit_noise(allan_deviation(still[:, k], replay.rate_hz)).K for k in range(3)])
             causes.append(Cause(RateRandomWalk.name, sensor, float((K * scale).max()),
-                                {"K": (K * scale).tolist()}, (f"{sensor}.adev", mean_fam, f"{sensor}.bias_scatter"),
+                                {"K": (K * scale).tolist()}, (f"{sensor}.adev", mean_fam, f"{sensor}.bias_scatter",
+                                                              f"{sensor}.spread", f"{sensor}.psd"),
                                 lambda seed, s=sensor, K=K: [RateRandomWalk(s, K=K, seed=seed * 7 + 3)]))
         if f"{sensor}.pinned" in fams:
             clean = sampled_rows(y)
@@ -135,6 +140,8 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
             share = float(100 * np.mean((clean == lo) | (clean == hi)))
             causes.append(Cause(Saturation.name, sensor, share, {"low": lo.tolist(), "high": hi.tolist()},
                                 (f"{sensor}.pinned",), lambda seed, s=sensor, lo=lo, hi=hi: [Saturation(s, low=lo, high=hi)]))
+        for cause in causes[first:]:
+            cause.base_unit = rec.sensors[sensor].extra.get(REPORT_UNIT_KEY)
     if not_still:
         causes.append(hold_not_still(session, rec, replay, floors))
     return causes

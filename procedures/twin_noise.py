@@ -13,6 +13,8 @@ import numpy as np
 from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
 from rig.io.decimals import written_decimals
+from rig.noise.still import sample_noise
+from rig.noise.still_log import is_still_log_calibration
 from rig.session_data import SessionData
 
 
@@ -20,8 +22,8 @@ def white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) ->
     """Per-axis standard deviation of the noise ahead of the rounding (raw units), pooled over the poses: what the
     simulator's white noise is. A recording in counts was rounded after its noise, and so is every replica, so the
     rounding's own share is taken out here (quantisation.noise_sigma) rather than counted twice."""
-    stds = np.array([sampled_rows(session.raw[sensor][p.rows]).std(axis=0, ddof=1) for p in rec.poses
-                     if len(sampled_rows(session.raw[sensor][p.rows])) > 1])
+    stds, n = _pose_spreads(session, rec, sensor)
+    stds = stds[n > 1]
     if session.meta.get("units", {}).get(sensor, "counts") == "counts":
         return noise_sigma(stds)
     return np.sqrt(np.mean(stds ** 2, axis=0))
@@ -76,8 +78,12 @@ def quiet_spread(session: SessionData, rec: RecordingCalibration, sensor: str) -
 
 
 def _pose_spreads(session: SessionData, rec: RecordingCalibration, sensor: str) -> tuple[np.ndarray, np.ndarray]:
+    """Each pose's spread per axis (poses, 3) and its samples. A still log's one pose is held for minutes or hours,
+    and its spread is its drift's as much as its noise's: its noise is its sample-to-sample noise (the drift is a
+    cause of its own, `rate_random_walk` or `bias_instability`)."""
     poses = [sampled_rows(session.raw[sensor][p.rows]) for p in rec.poses]
-    return np.array([v.std(axis=0, ddof=1) for v in poses]), np.array([len(v) for v in poses])
+    spread = sample_noise if is_still_log_calibration(rec) else (lambda v: v.std(axis=0, ddof=1))
+    return np.array([spread(v) for v in poses]), np.array([len(v) for v in poses])
 
 
 def _quiet(spreads: np.ndarray, n: np.ndarray) -> np.ndarray:

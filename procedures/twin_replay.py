@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -20,8 +21,9 @@ from fixtures.world.model import Environment, SensorModel
 from fixtures.world.recorded import RecordedAttitude
 from procedures.twin_noise import noise_dof, printed_decimals, sampled_rows, white_noise
 from rig.calibration.carry_weight import CarryWeight
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
+from rig.noise.still_log import is_still_log_calibration, still_log_calibration
 from rig.rotations import matrix_from_rotvec
 from rig.session_data import SessionData, filled
 
@@ -39,8 +41,7 @@ class Replay:
     segments: list[dict]
     rate_hz: float
     source: str
-    carry: CarryWeight | None = None      # the recording's trust in its hand motions, kept for every replica
-    gyro_start: np.ndarray | None = None  # the recording's gyro H, where a replica's gyro fit starts
+    calibrate: Callable[[SessionData], RecordingCalibration]   # every replica's calibration: the recording's
     decimals: dict[str, int] | None = None  # sensors in physical units the recording printed with so many decimals
     noise_dof: dict[str, float] | None = None  # degrees of freedom of each white noise level estimated from the poses
 
@@ -113,8 +114,19 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
-                  CarryWeight.from_extra(gyro.extra) if gyro else None, gyro.H if gyro else None,
+                  replica_calibration(rec),
                   printed_decimals(session, sensors), {name: noise_dof(session, name, rec) for name in sensors})
+
+
+def replica_calibration(rec: RecordingCalibration) -> Callable[[SessionData], RecordingCalibration]:
+    """How every replica is calibrated: as the recording was. A recording's poses and motions keep its trust in its
+    hand motions, and the gyro's fit starts at its H (the same optimum, in a third less time); a still log's
+    replica gives its own mean back (`still_log_calibration`)."""
+    if is_still_log_calibration(rec):
+        return still_log_calibration
+    gyro = rec.sensors.get("gyro")
+    return partial(calibrate_recording, carry=CarryWeight.from_extra(gyro.extra) if gyro else None,
+                   gyro_start=gyro.H if gyro else None)
 
 
 def _attitudes(t: np.ndarray, omega: np.ndarray, pose_of: np.ndarray, up: list[np.ndarray],

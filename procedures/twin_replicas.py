@@ -19,7 +19,6 @@ from fixtures.world.model import SensorModel, World
 from procedures.fork_pool import ForkPool, fork_available
 from procedures.twin_noise import drawn_level
 from procedures.twin_replay import Replay
-from rig.calibration.recording import calibrate_recording
 from rig.errors import CalibrationError
 from rig.io.recording import recording_session
 from rig.noise.statistics import recording_statistics
@@ -99,8 +98,7 @@ def _one_replica(task: tuple[int, int]) -> dict | None:
     job = _JOBS[j]
     rep = replica(job.replay, seed, job.effects_for(seed), job.quiet)
     try:
-        return recording_statistics(rep, calibrate_recording(rep, carry=job.replay.carry,
-                                                             gyro_start=job.replay.gyro_start))
+        return recording_statistics(rep, job.replay.calibrate(rep))
     except CalibrationError:
         return None
 

@@ -35,8 +35,10 @@ class EffectSpec:
     family: str = "model"             # "model": a candidate test on turntable sessions; "noise": the twin's
     no_candidate: str = ""            # why no candidate test exists (empty: the analysis must have one)
 
-    def unit_for(self, sensor: str) -> str:
-        return self.unit.format(unit=REPORT_UNITS[sensor][0]) if "{unit}" in self.unit else self.unit
+    def unit_for(self, sensor: str, base: str | None = None) -> str:
+        """The unit a magnitude on `sensor` is reported in; `base` in place of the sensor's own (a still log's
+        gyro in counts, which no scale turns into deg/s: `rig.noise.still_log`)."""
+        return self.unit.format(unit=base or REPORT_UNITS[sensor][0]) if "{unit}" in self.unit else self.unit
 
     @property
     def tested_on(self) -> tuple[str, ...]:
@@ -84,8 +86,8 @@ def effect(name: str) -> EffectSpec:
         raise ValueError(f"unknown effect {name!r}; the vocabulary is {sorted(EFFECTS)}") from None
 
 
-def unit_for(name: str, sensor: str) -> str:
-    return effect(name).unit_for(sensor)
+def unit_for(name: str, sensor: str, base: str | None = None) -> str:
+    return effect(name).unit_for(sensor, base)
 
 
 def discover(package: str, path: Iterable[str]) -> list[str]:

@@ -133,7 +133,8 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     except OSError as exc:
         raise CommandError(f"{exc.filename or json_out}: cannot write the report: {exc.strerror}") from None
     n = summary["statistics"]
-    click.echo(f"{session_dir}: a recording without a turntable, against its twin ({twin['replicas']} replicas)")
+    click.echo(f"{session_dir}: a recording without a turntable, {twin['replayed']}, against its twin "
+               f"({twin['replicas']} replicas)")
     click.echo(f"statistics inside the replicas' 1-99 % band: {summary['inside_before']}/{n} "
                f"({100 * summary['inside_before'] / n:.0f} %) with the simulator's white noise, "
                f"{summary['inside_after']}/{n} ({100 * summary['inside_after'] / n:.0f} %) with what the recording shows")
@@ -168,9 +169,8 @@ def twin_markdown(report: dict, files: list[Path]) -> str:
     s = twin["summary"]
     n = s["statistics"]
     lines = [f"# {report['session']} against its simulated twin", "",
-             f"{twin['replicas']} replicas: the recording's "
-             f"{'poses alone' if twin['not_analysed'] else 'poses and motions'} replayed in the simulated world with its "
-             "own calibration and noise; a statistic outside the replicas' 1-99 % band is something the simulation "
+             f"{twin['replicas']} replicas: the recording ({twin['replayed']}) replayed in the simulated world with "
+             "its own calibration and noise; a statistic outside the replicas' 1-99 % band is something the simulation "
              "gets wrong.", "",
              "| | inside the band |", "| --- | --- |",
              f"| the simulator's white noise | {s['inside_before']}/{n} ({100 * s['inside_before'] / n:.0f} %) |",

@@ -15,7 +15,6 @@ import click
 
 from rig.exits import CommandError, Exit, command_error
 
-STILL_RATIO = 10.0     # a still stream's spread is its white noise and slow drifts; a moved one's is the motion
 TERMS = (("N", "white noise", "per sqrt(Hz)"), ("B", "bias instability", ""), ("K", "rate random walk", "sqrt(Hz)"),
          ("Q", "quantisation noise", "s"))
 
@@ -59,6 +58,7 @@ def static_noise(session) -> dict:
     import numpy as np
 
     from rig.noise.allan import allan_deviation, fit_noise
+    from rig.noise.still import STILL_RATIO, stillness_ratio
 
     rate = float(session.sample_rate_hz or 1.0 / np.median(np.diff(session.t)))
     units = session.meta.get("units", {})
@@ -73,10 +73,10 @@ def static_noise(session) -> dict:
                 curve = allan_deviation(stream, rate)
             except ValueError as exc:
                 raise CommandError(f"{session.source}: {sensor}.{axis}: {exc}", Exit.BAD_INPUT) from None
-            spread = float(np.nanstd(stream))
-            if spread > STILL_RATIO * curve.adev[0]:
+            ratio = stillness_ratio(stream)
+            if ratio > STILL_RATIO:
                 raise CommandError(f"{session.source}: {sensor}.{axis} is not still: its spread is "
-                                   f"{spread / curve.adev[0]:.0f} times its sample-to-sample noise; `rig noise` "
+                                   f"{ratio:.0f} times its sample-to-sample noise; `rig noise` "
                                    "reads a static recording (one pose held), and the Allan deviation of a moving "
                                    "one says nothing about its noise", Exit.BAD_INPUT)
             terms = fit_noise(curve)

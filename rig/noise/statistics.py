@@ -3,7 +3,8 @@
 Per sensor: the spread within each static pose, the pose means against the model (the accelerometer's |a| - g,
 the gyro's calibrated rate), their scatter from pose to pose, the Allan deviation and the spectrum of the longest
 pose, the step between the stream's distinct values (the grid's, where they lie on one), the share of samples
-pinned at an extreme; per turn or motion the gyro's angle residual; and how the calibration's own standard
+pinned at an extreme (the pose means only where there are several: a still log's one mean is what its
+calibration was made from); per turn or motion the gyro's angle residual; and how the calibration's own standard
 deviations compare with the scatter of leave-one-pose-out refits. The same function runs on the real recording
 and on every replica, through the same calibration, so a difference is the world's, not the pipeline's.
 """
@@ -44,22 +45,8 @@ def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dic
         for p, v in zip(rec.poses, in_pose):
             for k in range(3):
                 out[f"{sensor}.spread.{AXES[k]}[{p.name}]"] = float(v[:, k].std(ddof=1))
-        means = np.array([v.mean(axis=0) for v in in_pose])
-        calibrated = cal.apply(means)
-        if sensor == "gyro":
-            for p, m in zip(rec.poses, calibrated):
-                for k in range(3):
-                    out[f"gyro.hold_mean.{AXES[k]}[{p.name}]"] = float(m[k])
-            for k in range(3):
-                out[f"gyro.bias_scatter.{AXES[k]}"] = float(calibrated[:, k].std(ddof=1))
-        else:
-            norm = session.gravity if sensor == "accel" else float(session.field_uT)
-            residual = np.linalg.norm(calibrated, axis=1) - norm
-            free = [i for i, p in enumerate(rec.poses) if not (sensor == "accel" and p.up)]
-            for i in free:        # a face whose tilt is fitted meets |a| = g by construction: nothing to compare
-                out[f"{sensor}.norm_residual[{rec.poses[i].name}]"] = float(residual[i])
-            if len(free) > 2:
-                out[f"{sensor}.norm_scatter"] = float(residual[free].std(ddof=1))
+        if len(rec.poses) > 1:        # one pose (a still log): its mean is what its calibration was made from
+            out.update(_pose_means(session, rec, sensor, cal.apply(np.array([v.mean(axis=0) for v in in_pose]))))
         stretch = in_pose[longest]
         powers = band_powers(stretch.T, rate)
         for k in range(3):
@@ -80,6 +67,28 @@ def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dic
             out[f"gyro.carry_error[{rec.poses[i].name}->{rec.poses[j].name}]"] = float(err)
     for sensor, ratio in loo_scatter_ratios(session, rec).items():
         out[f"{sensor}.loo_scatter_to_predicted"] = ratio
+    return out
+
+
+def _pose_means(session: SessionData, rec: RecordingCalibration, sensor: str, calibrated: np.ndarray
+                ) -> dict[str, float]:
+    """The calibrated pose means: the gyro's rates and their scatter from pose to pose, the other sensors' norms
+    against the environment's where no face says which axis was up."""
+    out = {}
+    if sensor == "gyro":
+        for p, m in zip(rec.poses, calibrated):
+            for k in range(3):
+                out[f"gyro.hold_mean.{AXES[k]}[{p.name}]"] = float(m[k])
+        for k in range(3):
+            out[f"gyro.bias_scatter.{AXES[k]}"] = float(calibrated[:, k].std(ddof=1))
+        return out
+    norm = session.gravity if sensor == "accel" else float(session.field_uT)
+    residual = np.linalg.norm(calibrated, axis=1) - norm
+    free = [i for i, p in enumerate(rec.poses) if not (sensor == "accel" and p.up)]
+    for i in free:        # a face whose tilt is fitted meets |a| = g by construction: nothing to compare
+        out[f"{sensor}.norm_residual[{rec.poses[i].name}]"] = float(residual[i])
+    if len(free) > 2:
+        out[f"{sensor}.norm_scatter"] = float(residual[free].std(ddof=1))
     return out
 
 
