@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recording_checks import check_no_stuck_axis
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose
 from rig.errors import CalibrationError
@@ -24,6 +25,7 @@ from rig.units import DEG
 METHOD = "still log: the recording's own mean, no calibration"
 REPORT_UNIT_KEY = "report_unit"       # in `extra`: the unit a magnitude is reported in where no scale is known
 GYRO_PER_RAW = {"deg/s": DEG, "rad/s": 1.0}
+MIN_SAMPLES = 8                       # the least an Allan deviation is taken of (`rig.noise.allan`)
 
 
 def is_still_log(session: SessionData) -> bool:
@@ -37,6 +39,10 @@ def is_still_log_calibration(rec: RecordingCalibration) -> bool:
 
 def still_log_calibration(session: SessionData) -> RecordingCalibration:
     """One pose over every row, and each sensor's response that gives its mean back (module docstring)."""
+    check_no_stuck_axis(session)
+    if len(session.t) < MIN_SAMPLES:
+        raise CalibrationError(f"{session.source}: a still log of {len(session.t)} samples; its twin needs at least "
+                               f"{MIN_SAMPLES} (an Allan deviation)")
     moving = moving_axis(session)
     if moving is not None:
         sensor, axis, ratio = moving

@@ -9,12 +9,15 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_unseen_recordings import rig  # noqa: E402
 
 from procedures.twin_analysis import analyse_twin  # noqa: E402
+from rig.errors import CalibrationError  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
+from rig.noise.still_log import still_log_calibration  # noqa: E402
 
 RATE_HZ = 100.0
 COUNTS_PER_G = 2048.0
@@ -92,3 +95,13 @@ def test_a_real_still_log_runs_from_the_command_line(tmp_path):
     assert s["inside_after"] >= 0.9 * s["statistics"], s
     assert sorted(twin["unexplained"]) == sorted(s["outside_after"])
     assert all(c["unit"].startswith("counts") for c in twin["causes"] if c["sensor"] == "gyro")
+
+
+def test_a_still_log_too_short_or_with_a_stuck_axis_is_refused_with_what_is_wrong():
+    short = still_log(4, seconds=0.06)
+    with pytest.raises(CalibrationError, match="a still log of 6 samples; its twin needs at least 8"):
+        still_log_calibration(short)
+    stuck = still_log(5, seconds=10.0)
+    stuck.raw["gyro"][:, 2] = 7.0
+    with pytest.raises(CalibrationError, match=r"gyro\.z .* holds the same value 7 on all 1000 rows"):
+        analyse_twin(stuck)
