@@ -5,8 +5,10 @@ written at several lengths up to 6 hours (2.16 million rows), then, each in a fr
 resident memory is that of the step alone: `rig import csv` (read, check, write the session),
 `rig.io.session_csv.read_session` of the result (what every command does first) and `rig noise` (the Allan
 deviation and noise terms of every axis, what the log is recorded for). Targets (issue 13): time
-linear in the rows, memory under 1 GB. Prints JSON.
-Usage: python benchmarks/bench_long_recording.py [--hours 0.25 1 6]
+linear in the rows, memory under 1 GB. With `--twin`, also `rig discrepancy` (the log against its twin, README "A
+still log"): its workers are forked, so its memory is the proportional set size of the command and its workers
+summed, sampled every 0.5 s (Linux /proc), not one process's peak. Prints JSON.
+Usage: python benchmarks/bench_long_recording.py [--hours 0.25 1 6] [--twin]
 """
 
 from __future__ import annotations
@@ -57,9 +59,38 @@ def measured(argv: list[str]) -> dict:
     return {"wall_s": round(wall, 3), "peak_rss_mib": round(peak_kib / 1024, 1)}
 
 
+def tree_pss_mib(pid: int) -> float:
+    """The proportional set size (MiB) of a process and all its descendants now (shared pages split among them)."""
+    total, todo = 0, [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            total += next(int(line.split()[1]) for line in Path(f"/proc/{p}/smaps_rollup").read_text().splitlines()
+                          if line.startswith("Pss:"))
+            todo += [int(c) for t in Path(f"/proc/{p}/task").iterdir()
+                     for c in (t / "children").read_text().split()]
+        except (OSError, StopIteration, ValueError):
+            continue
+    return total / 1024
+
+
+def measured_tree(argv: list[str]) -> dict:
+    """Wall time and the peak summed PSS of a command whose work runs in forked workers."""
+    t0, peak = time.perf_counter(), 0.0
+    with subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True) as proc:
+        while proc.poll() is None:
+            peak = max(peak, tree_pss_mib(proc.pid))
+            time.sleep(0.5)
+        err = proc.stderr.read()
+    if proc.returncode not in (0, 1):
+        raise SystemExit(f"{' '.join(argv)} failed: {err[-500:]}")
+    return {"wall_s": round(time.perf_counter() - t0, 3), "peak_pss_mib": round(peak, 1)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hours", type=float, nargs="+", default=[0.25, 1.0, 6.0])
+    parser.add_argument("--twin", action="store_true", help="also the log against its twin (rig discrepancy)")
     args = parser.parse_args()
     sizes = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -78,6 +109,12 @@ def main() -> None:
                           "import_us_per_row": round(1e6 * imported["wall_s"] / rows, 2),
                           "read_us_per_row": round(1e6 * read["wall_s"] / rows, 2),
                           "noise_us_per_row": round(1e6 * analysed["wall_s"] / rows, 2)})
+            if args.twin:
+                twin = measured_tree([sys.executable, "-m", "rig.cli", "discrepancy", str(out), "--json",
+                                      str(out / "d.json")])
+                summary = json.loads((out / "d.json").read_text())["twin"]["summary"]
+                sizes[-1]["twin"] = {**twin, "twin_us_per_row": round(1e6 * twin["wall_s"] / rows, 2),
+                                     **{k: summary[k] for k in ("statistics", "inside_before", "inside_after")}}
             log.unlink()
     biggest = max(sizes, key=lambda s: s["rows"])
     print(json.dumps({

@@ -4,7 +4,8 @@ replicas' 1-99 % band before and after the extension, the causes named, the mode
 Beside the wall time, the CPU seconds of the command and its workers and the machine's load before and after it:
 on a machine shared with others the CPU seconds are the figure their work does not change (on an idle 2-core
 machine the wall time is about half of them plus the serial start). Every recording in shared/data that the
-importers read is used; a recording that is not there is reported as missing, not skipped silently. Prints JSON.
+importers read is used, and the MPU-6050 still log of tests/data (README, "A still log"); a recording that is not
+there is reported as missing, not skipped silently. Prints JSON.
 Usage: python benchmarks/bench_twin.py [--replicas N] [--shared ../shared] [--only NAME]
 """
 
@@ -22,6 +23,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 RIG = [sys.executable, "-m", "rig.cli"]
+STILL_LOG = ROOT / "tests" / "data" / "mpu6050-tomisuarez2" / "example_data_tinit_calc.csv"
 
 
 def imports(data: Path) -> dict[str, list[str]]:
@@ -33,6 +35,8 @@ def imports(data: Path) -> dict[str, list[str]]:
                                "--rate-hz", "102.4", "--units", "accel=m/s^2,gyro=deg/s"],
         "imucal-ferraris-raw": ["ferraris", "--annotated", str(data / "imucal-ferraris/annotated_session.csv"),
                                 "--rate-hz", "204.8"],
+        "tomisuarez2-still": ["csv", str(STILL_LOG), "--header-line", "5", "--rate-hz", "100", "--accel", "ax,ay,az",
+                              "--gyro", "gx,gy,gz"],
     }
 
 
