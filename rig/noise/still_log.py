@@ -18,7 +18,7 @@ from rig.calibration.recording_checks import check_no_stuck_axis
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose
 from rig.errors import CalibrationError
-from rig.noise.still import STILL_RATIO, moving_axis
+from rig.noise.still import moving_axis
 from rig.session_data import SessionData
 from rig.units import DEG
 
@@ -38,16 +38,12 @@ def is_still_log_calibration(rec: RecordingCalibration) -> bool:
 
 
 def still_log_calibration(session: SessionData) -> RecordingCalibration:
-    """One pose over every row, and each sensor's response that gives its mean back (module docstring)."""
+    """One pose over every row, and each sensor's response that gives its mean back (module docstring), for a
+    recording `is_still_log` found still; every replica of it is calibrated so too, without asking again."""
     check_no_stuck_axis(session)
     if len(session.t) < MIN_SAMPLES:
         raise CalibrationError(f"{session.source}: a still log of {len(session.t)} samples; its twin needs at least "
                                f"{MIN_SAMPLES} (an Allan deviation)")
-    moving = moving_axis(session)
-    if moving is not None:
-        sensor, axis, ratio = moving
-        raise CalibrationError(f"{sensor}.{axis} is not still: its spread is {ratio:.0f} times its sample-to-sample "
-                               f"noise (a still log's is below {STILL_RATIO:g})")
     units = session.meta.get("units", {})
     sensors = {}
     for name, y in session.raw.items():
