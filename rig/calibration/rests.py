@@ -60,8 +60,6 @@ def rest_motions(session: SessionData, rec: RecordingCalibration,
     out = []
     for (a, a_rest), (b, b_rest) in zip(stretches[:-1], stretches[1:]):
         t0, t1 = session.t[a[-1]], session.t[b[0]]
-        between = any(s["t0"] < t1 and s["t1"] > t0 and not s["t0"] <= t0 <= s["t1"] and not s["t0"] <= t1 <= s["t1"]
-                      for s in segments)
-        if (a_rest or b_rest) and not between:
+        if (a_rest or b_rest) and not any(t0 < s["t0"] and s["t1"] < t1 for s in segments):
             out.append((a, b))
     return out
