@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.errors import InputError
-from rig.session_data import SessionData
+from rig.session_data import SessionData, no_reference
 from rig.units import STANDARD_GRAVITY
 
 DEFAULT_COLUMNS = {"accel": ["ax", "ay", "az"], "gyro": ["gx", "gy", "gz"], "mag": ["mx", "my", "mz"]}
@@ -46,7 +46,7 @@ def recording_session(t: np.ndarray, raw: dict[str, np.ndarray], *, units: dict[
         step = np.where(is_move, np.maximum(left, 0), step)
     meta = {"reference": "none", "units": {s: units.get(s, "counts") for s in raw}, "segments": segments,
             "imported": imported or {}, **({"initial_rest_s": float(initial_rest_s)} if initial_rest_s else {})}
-    return SessionData(t=t, is_move=is_move, step=step, q_ref=np.full((n, 4), np.nan),
+    return SessionData(t=t, is_move=is_move, step=step, q_ref=no_reference(n),
                        raw={s: np.asarray(y, dtype=float) for s, y in raw.items()},
                        columns={s: list(DEFAULT_COLUMNS[s]) for s in raw}, gravity=float(gravity),
                        field_uT=None if field_uT is None else float(field_uT), sample_rate_hz=sample_rate_hz,

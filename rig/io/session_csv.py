@@ -22,7 +22,7 @@ from rig.io.session_format import (ANGLE_LIMIT_DEG, META_FILE, PHASES, QUAT_COLU
 from rig.io.session_meta import read_meta
 from rig.io.session_samples import (check_header, check_hold_runs, check_increasing, check_move_steps, check_range,
                                     check_time_unit, integers, quaternions, sensor_values)
-from rig.session_data import SessionData
+from rig.session_data import SessionData, no_reference
 
 
 def read_session(folder: str | os.PathLike) -> SessionData:
@@ -68,7 +68,7 @@ def read_session(folder: str | os.PathLike) -> SessionData:
         is_move = phase == "move"
     else:
         step, is_move = np.full(n, -1, dtype=np.int64), np.ones(n, dtype=bool)
-    q_ref = quaternions(samples, cols, allow_empty=free) if has_q else np.full((n, 4), np.nan)
+    q_ref = quaternions(samples, cols, allow_empty=free) if has_q else no_reference(n)
 
     units = meta.get("units", {})
     raw = {name: sensor_values(samples, cols, name, names, units.get(name, "counts"))
