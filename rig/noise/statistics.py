@@ -40,23 +40,22 @@ def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dic
             continue
         y = session.raw[sensor]
         cal = rec.sensors[sensor]
-        whole = _clean(y)
-        in_pose = [_clean(y[p.rows]) for p in rec.poses]
+        complete = ~np.isnan(y).any(axis=1)
+        in_pose = [_complete_rows(y, p.rows, complete) for p in rec.poses]
         for p, v in zip(rec.poses, in_pose):
             for k in range(3):
                 out[f"{sensor}.spread.{AXES[k]}[{p.name}]"] = float(v[:, k].std(ddof=1))
         if len(rec.poses) > 1:        # one pose (a still log): its mean is what its calibration was made from
             out.update(_pose_means(session, rec, sensor, cal.apply(np.array([v.mean(axis=0) for v in in_pose]))))
         stretch = in_pose[longest]
-        powers = band_powers(stretch.T, rate)
-        for k in range(3):
+        for k in range(3):          # an axis at a time: a 6-hour log's stretch is 52 MiB an axis
             x = stretch[:, k]
             curve = allan_deviation(x, rate)
             for tau, adev in zip(curve.tau, curve.adev):
                 out[f"{sensor}.adev.{AXES[k]}@{tau:.4g}s"] = float(adev)
-            for (lo, hi), power in powers.items():
-                out[f"{sensor}.psd.{AXES[k]}[{lo:.3g}-{hi:.3g} Hz]"] = float(power[k])
-            values, counts = _distinct(whole[:, k])      # one sort serves both
+            for (lo, hi), power in band_powers(x, rate).items():
+                out[f"{sensor}.psd.{AXES[k]}[{lo:.3g}-{hi:.3g} Hz]"] = power
+            values, counts = _distinct(y[complete, k])      # one sort serves both
             out[f"{sensor}.step.{AXES[k]}"] = float(f"{_quantum(values, counts) or _step(values):.{STEP_DIGITS}g}")
             out[f"{sensor}.pinned.{AXES[k]}"] = _pinned(values, counts)
     gyro = rec.sensors.get("gyro")
@@ -92,24 +91,17 @@ def _pose_means(session: SessionData, rec: RecordingCalibration, sensor: str, ca
     return out
 
 
-def band_powers(x: np.ndarray, rate: float) -> dict[tuple[float, float], float | np.ndarray]:
+def band_powers(x: np.ndarray, rate: float) -> dict[tuple[float, float], float]:
     """Mean Welch power spectral density in PSD_BANDS log-spaced bands from the lowest resolved frequency to
-    Nyquist (unit^2 per Hz), of a stream x (n,), or of each row of x (m, n) in one call (an array per band)."""
+    Nyquist (unit^2 per Hz), of a stream x (n,)."""
     from scipy.signal import welch
 
     x = np.asarray(x, dtype=float)
-    centred = x - x.mean() if x.ndim == 1 else np.stack([row - row.mean() for row in x])
-    nper = int(min(256, x.shape[-1]))
-    f, p = welch(centred, fs=rate, nperseg=nper, axis=-1)
-    f, p = f[1:], p[..., 1:]
+    f, p = welch(x - x.mean(), fs=rate, nperseg=int(min(256, len(x))))
+    f, p = f[1:], p[1:]
     edges = np.geomspace(f[0], f[-1] * (1 + 1e-9), PSD_BANDS + 1)
-    out = {}
-    for lo, hi in zip(edges[:-1], edges[1:]):
-        sel = (f >= lo) & (f < hi)
-        if sel.any():
-            out[(float(lo), float(hi))] = (float(p[sel].mean()) if x.ndim == 1
-                                           else np.array([row[sel].mean() for row in p]))  # a row's sum, as 1-D
-    return out
+    return {(float(lo), float(hi)): float(p[(f >= lo) & (f < hi)].mean())
+            for lo, hi in zip(edges[:-1], edges[1:]) if ((f >= lo) & (f < hi)).any()}
 
 
 def quantum(x: np.ndarray, share: float = 0.9) -> float:
@@ -215,8 +207,12 @@ def _faces_loo_ratio(session: SessionData, rec: RecordingCalibration) -> float |
     return float(np.median(jack[ok] / stated[ok])) if ok.any() else None
 
 
-def _clean(v: np.ndarray) -> np.ndarray:
-    return v[~np.isnan(v).any(axis=1)]
+def _complete_rows(y: np.ndarray, rows: np.ndarray, complete: np.ndarray) -> np.ndarray:
+    """y's rows `rows` where every axis has a sample; a view where they are one unbroken run (a still log's one
+    pose is the whole log: a copy of it was 52 MiB in each replica of a 6-hour log)."""
+    if len(rows) and rows[-1] - rows[0] + 1 == len(rows) and complete[rows[0]:rows[-1] + 1].all():
+        return y[rows[0]:rows[-1] + 1]
+    return y[rows[complete[rows]]]
 
 
 def _rate(session: SessionData) -> float:
