@@ -37,9 +37,9 @@ def replica(replay: Replay, seed: int, effects: Iterable = (), quiet: Collection
     for name in replay.sensors:
         y = world.sense(name, replay.t)
         if replay.units[name] == "counts":
-            y = np.round(y)
+            np.round(y, out=y)
         elif name in (replay.decimals or {}):
-            y = np.round(y, replay.decimals[name])
+            np.round(y, replay.decimals[name], out=y)
         y[replay.missing[name]] = np.nan
         raw[name] = y
     return recording_session(replay.t, raw, units=replay.units, gravity=replay.env.gravity,
