@@ -4,6 +4,7 @@ bias or a coarse step at their sizes, and it runs from the command line on a rea
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -14,7 +15,10 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_unseen_recordings import rig  # noqa: E402
 
+from fixtures.world.recorded import HeldAttitude, RecordedAttitude  # noqa: E402
 from procedures.twin_analysis import analyse_twin  # noqa: E402
+from procedures.twin_replay import ReplayedAttitude, reconstruct  # noqa: E402
+from procedures.twin_replicas import replica  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 from rig.noise.still_log import still_log_calibration  # noqa: E402
@@ -105,3 +109,21 @@ def test_a_still_log_too_short_or_with_a_stuck_axis_is_refused_with_what_is_wron
     stuck.raw["gyro"][:, 2] = 7.0
     with pytest.raises(CalibrationError, match=r"gyro\.z .* holds the same value 7 on all 1000 rows"):
         analyse_twin(stuck)
+
+
+def test_a_still_log_is_replayed_at_one_attitude_and_senses_as_if_replayed_per_sample():
+    """The replay of one pose held keeps one attitude, not one per sample (memory a 6-hour log cannot spare), and
+    its replicas are, bit for bit, those the per-sample replay of the same attitude and a zero rate gives."""
+    log = still_log(5, seconds=30.0)
+    replay = reconstruct(log, still_log_calibration(log))
+    assert isinstance(replay.attitude, HeldAttitude)
+    n = len(replay.t)
+    R = np.broadcast_to(replay.attitude.R, (n, 3, 3))
+    per_sample = dataclasses.replace(replay, attitude=ReplayedAttitude(RecordedAttitude(replay.t, R, np.zeros((n, 3))),
+                                                                       replay.t))
+    for seed in (0, 7):
+        held, each = replica(replay, seed), replica(per_sample, seed)
+        for sensor in ("accel", "gyro"):
+            assert np.array_equal(held.raw[sensor], each.raw[sensor])
+    accel = replica(replay, 0).raw["accel"].mean(axis=0)
+    assert abs(np.linalg.norm(accel) - np.linalg.norm(log.raw["accel"].mean(axis=0))) < 1.0    # counts, 1 g = 2048
