@@ -97,6 +97,15 @@ def test_distinct_values_are_numpys(values):
     assert np.array_equal(u, expected_u) and np.array_equal(n, expected_n)
 
 
+def test_three_spectra_in_one_call_are_each_one():
+    x = np.random.default_rng(4).normal(size=(1500, 3)) * [1.0, 3.0, 0.1]
+    together = band_powers(x.T, 100.0)
+    for k in range(3):
+        alone = band_powers(x[:, k], 100.0)
+        assert list(alone) == list(together)
+        assert all(alone[band] == together[band][k] for band in alone)
+
+
 def test_the_bands_of_white_noise_hold_its_one_sided_level():
     x = np.random.default_rng(4).normal(0.0, 3.0, 60_000)
     powers = band_powers(x, 100.0)
