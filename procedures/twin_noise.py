@@ -10,7 +10,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from rig.calibration.quantisation import noise_sigma
+from rig.calibration.quantisation import noise_sigma, noise_sigma_at
 from rig.calibration.recording import RecordingCalibration
 from rig.io.decimals import written_decimals
 from rig.noise.still import sample_noise
@@ -97,26 +97,41 @@ def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str,
                 q: np.ndarray | None = None) -> np.ndarray:
     """Per axis, the quiet poses' spread (`quiet_spread`): the sensor's own noise, which the poses where a hand shook
     cannot lower; ahead of the rounding (counts, or the step `q` of a quantised recording)."""
-    return _ahead_of_rounding(session, sensor, quiet_spread(session, rec, sensor), q)
+    spreads, n = _pose_spreads(session, rec, sensor)
+    weights = _quiet(spreads, n) * (n[:, None] - 1)
+    return _ahead_of_rounding(session, rec, sensor, quiet_spread(session, rec, sensor), q, weights)
 
 
 def pooled_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None) -> np.ndarray:
-    """Per axis, the noise pooled over the poses, ahead of the rounding."""
+    """Per axis, the noise pooled over the poses (each pose's variance alike), ahead of the rounding."""
     spreads, _ = _pose_spreads(session, rec, sensor)
-    return _ahead_of_rounding(session, sensor, np.sqrt(np.mean(spreads ** 2, axis=0)), q)
+    return _ahead_of_rounding(session, rec, sensor, np.sqrt(np.mean(spreads ** 2, axis=0)), q,
+                              np.ones(spreads.shape))
 
 
-def _ahead_of_rounding(session: SessionData, sensor: str, spread: np.ndarray, q: np.ndarray | None) -> np.ndarray:
-    """The Gaussian noise that, rounded to the step (1 count, or `q`), shows `spread` (quantisation.noise_sigma)."""
+def _ahead_of_rounding(session: SessionData, rec: RecordingCalibration, sensor: str, spread: np.ndarray,
+                       q: np.ndarray | None, weights: np.ndarray) -> np.ndarray:
+    """The Gaussian noise that, rounded to the step (1 count, or `q`), shows `spread`, the poses' variances pooled
+    with `weights` (poses, 3): given where each pose's mean sits on the grid (`quantisation.noise_sigma_at`; the
+    replicas' poses sit where the recording's do). Where no noise gives the poses their spreads, the mean over all
+    places (`noise_sigma`), or below half a step the spread itself.
+
+    Counts in steps of 8 under 3 counts of noise (a still log: one pose) had given its replicas 3.4-3.6 counts
+    ahead of their rounding from the mean over all places, whose spread after it put 29 of the log's statistics
+    outside that the plain twin had inside."""
     if q is None and session.meta.get("units", {}).get(sensor, "counts") == "counts":
         q = np.ones(3)
     if q is None:
         return spread
     q = np.where(q > 0, q, 1.0)
-    sigma = noise_sigma((spread / q)[None, :]) * q
-    # where the noise does not dither the step (spread below half a step), the spread of a pose depends on where
-    # its value sits on the grid, and inverting it is ill-posed: the spread itself is the better guess
-    return np.where(spread >= 0.5 * q, sigma, spread)
+    sigma = np.where(spread >= 0.5 * q, noise_sigma((spread / q)[None, :]) * q, spread)
+    spreads, n = _pose_spreads(session, rec, sensor)
+    means = np.array([sampled_rows(session.raw[sensor][p.rows]).mean(axis=0) for p in rec.poses])
+    for k in range(3):
+        use = (weights[:, k] > 0) & (n > 1)
+        found = noise_sigma_at(means[use, k], spreads[use, k] ** 2, weights[use, k], float(q[k])) if use.any() else None
+        sigma[k] = sigma[k] if found is None else found
+    return sigma
 
 
 def sampled_rows(v: np.ndarray) -> np.ndarray:

@@ -71,14 +71,19 @@ def test_a_walk_of_the_gyro_bias_is_named_a_rate_random_walk_in_counts_at_its_si
     assert s["inside_after"] >= 0.9 * s["statistics"] > s["inside_before"], s
 
 
-def test_a_coarse_step_of_the_accelerometer_is_named_quantisation_at_its_size():
-    """Counts that come in steps of 4 under 3 counts of noise (the MPU-6050's accelerometer does so under 54): the
-    step, in m/s^2 at the scale the log's own mean gives (g), and the replicas with it take the log's steps back."""
-    report = analyse_twin(still_log(3, accel_step=4))
+@pytest.mark.parametrize("size", [4, 8])
+def test_a_coarse_step_of_the_accelerometer_is_named_quantisation_at_its_size(size):
+    """Counts that come in steps of 4 or 8 under 3 counts of noise (the MPU-6050's accelerometer does so under 54):
+    the step, in m/s^2 at the scale the log's own mean gives (g), and the replicas with it take the log's steps back.
+    A step of 8 is more than twice the noise: the noise ahead of the rounding is found from where the log's mean sits
+    on the grid (x at 20 counts, halfway between two levels; y at -41, near one)."""
+    report = analyse_twin(still_log(3, accel_step=size))
     step = named(report).get(("quantisation", "accel"))
     assert step is not None, sorted(named(report))
-    assert abs(step["magnitude"] - 4 * 9.80665 / np.linalg.norm([20.0, -41.0, COUNTS_PER_G])) < 0.02 * step["magnitude"]
+    expected = size * 9.80665 / np.linalg.norm([20.0, -41.0, COUNTS_PER_G])
+    assert abs(step["magnitude"] - expected) < 0.02 * step["magnitude"]
     assert step["unit"] == "m/s^2"
+    assert np.allclose(step["params"]["noise_ahead_of_rounding_raw"], 3.0, rtol=0.08), step["params"]
     s = report["summary"]
     assert {f"accel.step.{axis}" for axis in "xyz"} <= set(s["outside_before"]) - set(s["outside_after"])
     assert s["inside_after"] >= 0.9 * s["statistics"], s
