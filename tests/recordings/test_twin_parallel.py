@@ -13,7 +13,8 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 
-from procedures.twin_replay import _align, _attitudes, reconstruct, twin_view  # noqa: E402
+from procedures.twin_motion import align, attitudes  # noqa: E402
+from procedures.twin_replay import reconstruct, twin_view  # noqa: E402
 from procedures.twin_replicas import Background, ReplicaJob, replica_runs, replica_statistics  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
@@ -74,14 +75,14 @@ def test_attitudes_are_the_sample_by_sample_product():
     for shift in (0, 60):                        # starting in a pose, and in a motion
         expected = np.empty((n - shift, 3, 3))
         p, tt, w = pose_of[shift:], t[shift:], omega[shift:]
-        current = _align(np.eye(3), up[p[0]] if p[0] >= 0 else np.array([0.0, 0.0, 1.0]))
+        current = align(np.eye(3), up[p[0]] if p[0] >= 0 else np.array([0.0, 0.0, 1.0]))
         for i in range(len(tt)):
             if p[i] >= 0 and (i == 0 or p[i - 1] != p[i]):
-                current = _align(current, up[p[i]])
+                current = align(current, up[p[i]])
             elif i > 0 and p[i] < 0:
                 current = current @ matrix_from_rotvec(0.5 * (w[i - 1] + w[i]) * (tt[i] - tt[i - 1]))
             expected[i] = current
-        assert np.array_equal(_attitudes(tt, w, p, up), expected)
+        assert np.array_equal(attitudes(tt, w, p, up), expected)
 
 
 @pytest.mark.parametrize("values", [
