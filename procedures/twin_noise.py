@@ -10,9 +10,10 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from rig.calibration.quantisation import noise_sigma, noise_sigma_at
+from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
 from rig.io.decimals import written_decimals
+from rig.noise.rounding import noise_sigma_at
 from rig.noise.still import sample_noise
 from rig.noise.still_log import is_still_log_calibration
 from rig.session_data import SessionData
@@ -112,7 +113,7 @@ def pooled_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q
 def _ahead_of_rounding(session: SessionData, rec: RecordingCalibration, sensor: str, spread: np.ndarray,
                        q: np.ndarray | None, weights: np.ndarray) -> np.ndarray:
     """The Gaussian noise that, rounded to the step (1 count, or `q`), shows `spread`, the poses' variances pooled
-    with `weights` (poses, 3): given where each pose's mean sits on the grid (`quantisation.noise_sigma_at`; the
+    with `weights` (poses, 3): given where each pose's mean sits on the grid (`rig.noise.rounding.noise_sigma_at`; the
     replicas' poses sit where the recording's do). Where no noise gives the poses their spreads, the mean over all
     places (`noise_sigma`), or below half a step the spread itself.
 

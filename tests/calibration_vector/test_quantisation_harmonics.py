@@ -1,8 +1,10 @@
-"""The rounding-bias series cut where its terms cannot change the sum gives the full 64-harmonic sum exactly."""
+"""The rounding-bias series cut where its terms cannot change the sum gives the full 64-harmonic sum exactly; the noise
+ahead of a coarse rounding is found from where the poses sit on the grid."""
 
 import numpy as np
 
 from rig.calibration import quantisation as Q
+from rig.noise.rounding import noise_sigma_at
 
 
 def _full(sigma: np.ndarray) -> np.ndarray:
@@ -31,11 +33,11 @@ def test_the_noise_ahead_of_a_coarse_rounding_is_found_from_where_the_poses_sit(
         x = np.round((centre + rng.normal(0.0, sigma, 100_000)) / q) * q
         means.append(x.mean())
         variances.append(x.var())
-        assert abs(Q.noise_sigma_at([x.mean()], [x.var()], [1.0], q) - sigma) < 0.05 * sigma
+        assert abs(noise_sigma_at([x.mean()], [x.var()], [1.0], q) - sigma) < 0.05 * sigma
     assert np.ptp(np.sqrt(variances)) > 0.5                    # the places do differ
-    pooled = Q.noise_sigma_at(means, variances, np.ones(4), q)
+    pooled = noise_sigma_at(means, variances, np.ones(4), q)
     assert abs(pooled - sigma) < 0.03 * sigma
-    assert abs(Q.noise_sigma_at([0.3], [40.0 ** 2 + q ** 2 / 12], [1.0], q) - 40.0) < 1e-6
-    assert Q.noise_sigma_at([0.0], [0.0], [1.0], q) is None       # a pose that never moves says nothing
+    assert abs(noise_sigma_at([0.3], [40.0 ** 2 + q ** 2 / 12], [1.0], q) - 40.0) < 1e-6
+    assert noise_sigma_at([0.0], [0.0], [1.0], q) is None       # a pose that never moves says nothing
     halfway = Q.noise_sigma(np.full((1, 3), np.sqrt(variances[2]) / q))[0] * q     # the mean over places
     assert abs(halfway - sigma) > 0.1 * sigma
