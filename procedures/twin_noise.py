@@ -45,10 +45,16 @@ def drawn_level(level: np.ndarray, dof: float | None, seed: int, stream: int) ->
 
 def noise_dof(session: SessionData, sensor: str, rec: RecordingCalibration) -> float | None:
     """The degrees of freedom of `white_noise`'s pooled variance, a plain mean of the poses' variances:
-    nu = P^2 / sum(1 / (n_i - 1)) (each variance has 2 sigma^4 / (n_i - 1))."""
+    nu = P^2 / sum(1 / (n_i - 1)) (each variance has 2 sigma^4 / (n_i - 1)). A still log's variance is its
+    sample-to-sample one (`sample_noise`), whose consecutive differences share a sample: 3 sigma^4 / n, so two
+    thirds of those degrees of freedom. Counted as the spread's, the replicas' level was pinned half as tight again
+    as the log's own, and on a 6-hour log, where bands are a tenth of a percent wide, its spread fell outside."""
     n = np.array([len(sampled_rows(session.raw[sensor][p.rows])) for p in rec.poses])
     n = n[n > 1]
-    return float(len(n) ** 2 / np.sum(1.0 / (n - 1))) if n.size else None
+    if not n.size:
+        return None
+    dof = float(len(n) ** 2 / np.sum(1.0 / (n - 1)))
+    return 2.0 * dof / 3.0 if is_still_log_calibration(rec) else dof
 
 
 def printed_decimals(session: SessionData, sensors: Iterable[str]) -> dict[str, int]:

@@ -18,10 +18,12 @@ from test_unseen_recordings import rig  # noqa: E402
 from fixtures.world.recorded import HeldAttitude, RecordedAttitude  # noqa: E402
 from procedures.twin_analysis import analyse_twin  # noqa: E402
 from procedures.twin_motion import ReplayedAttitude  # noqa: E402
+from procedures.twin_noise import drawn_level, noise_dof  # noqa: E402
 from procedures.twin_replay import reconstruct  # noqa: E402
 from procedures.twin_replicas import replica  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
+from rig.noise.still import sample_noise  # noqa: E402
 from rig.noise.still_log import still_log_calibration  # noqa: E402
 
 RATE_HZ = 100.0
@@ -133,3 +135,16 @@ def test_a_still_log_is_replayed_at_one_attitude_and_senses_as_if_replayed_per_s
             assert np.array_equal(held.raw[sensor], each.raw[sensor])
     accel = replica(replay, 0).raw["accel"].mean(axis=0)
     assert abs(np.linalg.norm(accel) - np.linalg.norm(log.raw["accel"].mean(axis=0))) < 1.0    # counts, 1 g = 2048
+
+
+def test_the_replicas_level_scatters_as_a_still_logs_own_estimate_of_it():
+    """A still log's white level is its sample-to-sample noise, whose consecutive differences share a sample: the
+    replicas' level, drawn from what the log allows it to be, must scatter as that estimate does, not as the spread's
+    (a third less)."""
+    log = still_log(8, seconds=50.0)
+    n = len(log.t)
+    dof = noise_dof(log, "gyro", still_log_calibration(log))
+    drawn = np.array([drawn_level(np.ones(3), dof, seed, 0) for seed in range(3000)])[:, 0]
+    rng = np.random.default_rng(9)
+    own = np.array([sample_noise(rng.normal(0.0, 1.0, n)) for _ in range(3000)])
+    assert abs(np.std(drawn) / np.std(own) - 1.0) < 0.1, (np.std(drawn), np.std(own))
