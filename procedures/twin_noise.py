@@ -120,8 +120,8 @@ def _ahead_of_rounding(session: SessionData, rec: RecordingCalibration, sensor: 
                        q: np.ndarray | None, weights: np.ndarray) -> np.ndarray:
     """The Gaussian noise that, rounded to the step (1 count, or `q`), shows `spread`, the poses' variances pooled
     with `weights` (poses, 3): given where each pose's mean sits on the grid (`rig.noise.rounding.noise_sigma_at`; the
-    replicas' poses sit where the recording's do). Where no noise gives the poses their spreads, the mean over all
-    places (`noise_sigma`), or below half a step the spread itself.
+    replicas' poses sit where the recording's do), up to two steps of spread. Beyond, and where no noise gives the
+    poses their spreads, the mean over all places (`noise_sigma`), or below half a step the spread itself.
 
     Counts in steps of 8 under 3 counts of noise (a still log: one pose) had given its replicas 3.4-3.6 counts
     ahead of their rounding from the mean over all places, whose spread after it put 29 of the log's statistics
@@ -134,7 +134,7 @@ def _ahead_of_rounding(session: SessionData, rec: RecordingCalibration, sensor: 
     sigma = np.where(spread >= 0.5 * q, noise_sigma((spread / q)[None, :]) * q, spread)
     spreads, n = _pose_spreads(session, rec, sensor)
     means = np.array([sampled_rows(session.raw[sensor][p.rows]).mean(axis=0) for p in rec.poses])
-    for k in range(3):
+    for k in np.flatnonzero(spread < 2.0 * q):        # beyond, the two agree, and the levels would be thousands
         use = (weights[:, k] > 0) & (n > 1)
         found = noise_sigma_at(means[use, k], spreads[use, k] ** 2, weights[use, k], float(q[k])) if use.any() else None
         sigma[k] = sigma[k] if found is None else found
