@@ -105,34 +105,33 @@ def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str,
     """Per axis, the quiet poses' spread (`quiet_spread`): the sensor's own noise, which the poses where a hand shook
     cannot lower; ahead of the rounding (counts, or the step `q` of a quantised recording)."""
     spreads, n = _pose_spreads(session, rec, sensor)
-    weights = _quiet(spreads, n) * (n[:, None] - 1)
-    return _ahead_of_rounding(session, rec, sensor, quiet_spread(session, rec, sensor), q, weights)
+    return _ahead_of_rounding(session, rec, sensor, q, spreads, n, _quiet(spreads, n) * (n[:, None] - 1))
 
 
 def pooled_noise(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None) -> np.ndarray:
     """Per axis, the noise pooled over the poses (each pose's variance alike), ahead of the rounding."""
-    spreads, _ = _pose_spreads(session, rec, sensor)
-    return _ahead_of_rounding(session, rec, sensor, np.sqrt(np.mean(spreads ** 2, axis=0)), q,
-                              np.ones(spreads.shape))
+    spreads, n = _pose_spreads(session, rec, sensor)
+    return _ahead_of_rounding(session, rec, sensor, q, spreads, n, np.ones(spreads.shape))
 
 
-def _ahead_of_rounding(session: SessionData, rec: RecordingCalibration, sensor: str, spread: np.ndarray,
-                       q: np.ndarray | None, weights: np.ndarray) -> np.ndarray:
-    """The Gaussian noise that, rounded to the step (1 count, or `q`), shows `spread`, the poses' variances pooled
-    with `weights` (poses, 3): given where each pose's mean sits on the grid (`rig.noise.rounding.noise_sigma_at`; the
-    replicas' poses sit where the recording's do), up to two steps of spread. Beyond, and where no noise gives the
-    poses their spreads, the mean over all places (`noise_sigma`), or below half a step the spread itself.
+def _ahead_of_rounding(session: SessionData, rec: RecordingCalibration, sensor: str, q: np.ndarray | None,
+                       spreads: np.ndarray, n: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The Gaussian noise that, rounded to the step (1 count, or `q`), shows the poses' `spreads` (poses, 3; `n`
+    samples each), their variances pooled with `weights` (poses, 3): given where each pose's mean sits on the grid
+    (`rig.noise.rounding.noise_sigma_at`; the replicas' poses sit where the recording's do), up to two steps of
+    spread. Beyond, and where no noise gives the poses their spreads, the mean over all places (`noise_sigma`), or
+    below half a step the spread itself.
 
     Counts in steps of 8 under 3 counts of noise (a still log: one pose) had given its replicas 3.4-3.6 counts
     ahead of their rounding from the mean over all places, whose spread after it put 29 of the log's statistics
     outside that the plain twin had inside."""
+    spread = np.sqrt(np.sum(weights * spreads ** 2, axis=0) / np.sum(weights, axis=0))
     if q is None and session.meta.get("units", {}).get(sensor, "counts") == "counts":
         q = np.ones(3)
     if q is None:
         return spread
     q = np.where(q > 0, q, 1.0)
     sigma = np.where(spread >= 0.5 * q, noise_sigma((spread / q)[None, :]) * q, spread)
-    spreads, n = _pose_spreads(session, rec, sensor)
     means = np.array([sampled_rows(session.raw[sensor][p.rows]).mean(axis=0) for p in rec.poses])
     for k in np.flatnonzero(spread < 2.0 * q):        # beyond, the two agree, and the levels would be thousands
         use = (weights[:, k] > 0) & (n > 1)
