@@ -212,13 +212,14 @@ def scattered_cov(J: np.ndarray, r: np.ndarray, kinds: list[slice], floor: bool)
     A = J^T J and S each kind's chi-square per degree of freedom (its rows less their leverage). A kind whose
     residuals the fit absorbs (three turns fix three scales exactly once the motions' angles are let go) shows no
     scatter and keeps the deviation its segments state, where one chi-square for all had shrunk it with the
-    others'. `floor`: no kind is trusted beyond its stated deviation (under the prior weight, which nothing chose
+    others'; a row no parameter moves (a turn's miss across a nominal axis has no part along it) is no degree of
+    freedom. `floor`: no kind is trusted beyond its stated deviation (under the prior weight, which nothing chose
     from the data)."""
     inv = np.linalg.pinv(J.T @ J)
     leverage = np.einsum("ij,jk,ik->i", J, inv, J)
     variance = np.ones(len(r))
     for rows in kinds:
-        dof = (rows.stop - rows.start) - float(leverage[rows].sum())
+        dof = int(np.any(J[rows] != 0, axis=1).sum()) - float(leverage[rows].sum())
         if dof > 0.5:
             chi2 = float(r[rows] @ r[rows]) / dof
             variance[rows] = max(chi2, 1.0) if floor else chi2
