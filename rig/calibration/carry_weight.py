@@ -12,6 +12,7 @@ angles pulling the scale the turns know."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,20 +36,30 @@ class CarryWeight:
     def isotropic(self) -> bool:
         return self.along_sd == self.across_sd
 
-    def extra(self) -> dict[str, float]:
+    @property
+    def fits_motions(self) -> bool:
+        return math.isfinite(self.across_sd)
+
+    def extra(self) -> dict[str, float | str | None]:
         """The keys a gyro calibration's `extra` (and calibration.json) carries it under."""
+        if not self.fits_motions:
+            return {"carry_sd": None, "carry_angle_sd": None, "motions": TURNS_ONLY_KEY}
         return {"carry_sd": self.across_sd, "carry_angle_sd": self.along_sd}
 
     @classmethod
     def from_extra(cls, extra: dict) -> "CarryWeight | None":
         """The weight a calibration's `extra` names; None where its fit had no motions (a file written before the
         angle was weighed apart names one weight for both)."""
+        if extra.get("motions") == TURNS_ONLY_KEY:
+            return TURNS_ONLY
         if extra.get("carry_sd") is None:
             return None
         return cls(extra["carry_sd"], extra.get("carry_angle_sd", extra["carry_sd"]))
 
 
 PRIOR = CarryWeight()
+TURNS_ONLY_KEY = "not fitted: the turns alone predict them better"
+TURNS_ONLY = CarryWeight(math.inf, math.inf)    # three turns fix H, and the motions add nothing they can show
 
 
 def candidates() -> list[CarryWeight]:

@@ -53,6 +53,8 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
         carry = PRIOR
         if turn_terms and carry_terms and info["rank"] == 9:
             carry = carry_weight_by_cross_validation(B, turn_terms, carry_terms, H)
+    if not carry.fits_motions:
+        carry_terms = []
     if carry != PRIOR:
         H, cov, info = gyro_rotation_fit(B, turn_terms, carry_terms, H0=H, carry=carry)
     if info["rank"] < 9:

@@ -4,6 +4,7 @@ fix the axes."""
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -12,8 +13,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 
-from rig.calibration.carry_weight import CarryWeight, angle_directions, weighted_miss  # noqa: E402
+from rig.calibration.carry_choice import carry_weight_by_cross_validation  # noqa: E402
+from rig.calibration.carry_weight import PRIOR, TURNS_ONLY, CarryWeight, angle_directions, weighted_miss  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recording_gyro import motion, summed_rate  # noqa: E402
+from rig.calibration.recording_vector import gravity_directions  # noqa: E402
 from rig.rotations import axis_angle_matrix  # noqa: E402
 
 CAREFUL = dict(turn_err_deg=0.3, wobble_deg=0.3, tilt_deg=0.3)
@@ -52,7 +56,7 @@ def test_the_miss_along_the_angle_is_weighed_at_its_own_deviation():
 def _h_error(seed: int, scale_sd: float) -> tuple[float, CarryWeight]:
     session, truth = generate(seed, motion_scale_sd=scale_sd, **CAREFUL)
     gyro = calibrate_recording(session).sensors["gyro"]
-    weight = CarryWeight(gyro.extra["carry_sd"], gyro.extra["carry_angle_sd"])
+    weight = CarryWeight.from_extra(gyro.extra)
     return float(np.abs(gyro.H @ np.linalg.inv(truth.gyro_H) - np.eye(3)).max()), weight
 
 
@@ -62,9 +66,42 @@ def test_flips_read_each_at_a_scale_of_its_own_leave_the_gyro_where_the_turns_pu
     0.45 % the same sessions give with exact motions (0.58 % on average, 1.3 % at worst)."""
     errors, weights = zip(*(_h_error(seed, 0.01) for seed in range(8)))
     assert np.mean(errors) < 0.009 and max(errors) < 0.02, errors
-    assert sum(w.along_sd > w.across_sd for w in weights) >= 6, weights
+    assert sum(not w.fits_motions or w.along_sd > w.across_sd for w in weights) >= 6, weights
 
 
 def test_exact_motions_lose_nothing_to_the_choice():
     errors, _ = zip(*(_h_error(seed, 0.0) for seed in range(8)))
     assert np.mean(errors) < 0.006, errors
+
+
+def _terms(seed: int, miss_deg: float) -> tuple:
+    """A careful session's turns and motions as the gyro's fit takes them, each motion's gravity at its end turned
+    by `miss_deg` about an axis of its own: motions that say something the turns do not."""
+    session, _ = generate(seed, **CAREFUL)
+    rec = calibrate_recording(session)
+    B = rec.sensors["gyro"].B
+    turns = [(summed_rate(session, t.rows, B), t.axis, t.angle_rad, t.angle_sd_rad, t.axis_sd_rad) for t in rec.turns]
+    g = gravity_directions(session, rec.sensors["accel"], rec.poses)
+    rng = np.random.default_rng(100 + seed)
+    carries = []
+    for i, j in rec.carries:
+        axis = rng.normal(size=3)
+        miss = axis_angle_matrix(axis / np.linalg.norm(axis), np.radians(miss_deg))
+        carries.append((motion(session, rec.poses[i], rec.poses[j]), g[i], miss @ g[j]))
+    return B, turns, carries, rec.sensors["gyro"].H
+
+
+def test_motions_the_turns_predict_better_than_they_predict_each_other_are_left_out_of_the_fit():
+    """Three turns fix H; motions whose ends miss by 2 deg predict each other worse than the turns alone predict
+    them (measured: turns alone chosen on 7 of 8 seeds), exact ones better (1 of 8)."""
+    missing = [carry_weight_by_cross_validation(*_terms(seed, 2.0)) for seed in range(8)]
+    exact = [carry_weight_by_cross_validation(*_terms(seed, 0.0)) for seed in range(8)]
+    assert sum(not w.fits_motions for w in missing) >= 6, missing
+    assert sum(w.fits_motions for w in exact) >= 6, exact
+
+
+def test_the_choice_is_written_as_json_and_read_back():
+    for weight in (PRIOR, CarryWeight(0.02, 0.2), TURNS_ONLY):
+        extra = json.loads(json.dumps(weight.extra(), allow_nan=False))
+        assert CarryWeight.from_extra(extra) == weight
+    assert CarryWeight.from_extra({"carry_sd": None, "carry_angle_sd": None}) is None
