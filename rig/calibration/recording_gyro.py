@@ -76,6 +76,7 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
         extra={"turns": [t.name for t in turns], "turn_angle_error_deg": angle_err,
                "carries": [[poses[i].name, poses[j].name] for i, j in carries], "carry_error_deg": carry_err,
                "residual_unit": "rad (turn angles, carried gravity)",
+               "turns_fitted_exactly": not carry_terms and 3 * len(turn_terms) <= 9,
                **(carry.extra() if carries else {"carry_sd": None, "carry_angle_sd": None}),
                "loo_scatter_to_predicted": info["loo_scatter_to_predicted"]})
     return cal, {"turns": len(turn_terms), "carries": len(carry_terms)}

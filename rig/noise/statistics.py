@@ -62,7 +62,8 @@ def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dic
             out[f"{sensor}.pinned.{AXES[k]}"] = _pinned(values, counts)
     gyro = rec.sensors.get("gyro")
     if gyro is not None:
-        for turn, err in zip(rec.turns, gyro.extra.get("turn_angle_error_deg", [])):
+        exact = gyro.extra.get("turns_fitted_exactly")      # three turns alone: their residuals are zero by design
+        for turn, err in zip([] if exact else rec.turns, gyro.extra.get("turn_angle_error_deg", [])):
             out[f"gyro.turn_error[{turn.name}]"] = float(err)
         for (i, j), err in zip(rec.carries, gyro.extra.get("carry_error_deg", [])):
             out[f"gyro.carry_error[{rec.poses[i].name}->{rec.poses[j].name}]"] = float(err)

@@ -18,6 +18,7 @@ from rig.calibration.carry_weight import PRIOR, TURNS_ONLY, CarryWeight, angle_d
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.calibration.recording_gyro import motion, summed_rate  # noqa: E402
 from rig.calibration.recording_vector import gravity_directions  # noqa: E402
+from rig.noise.statistics import recording_statistics  # noqa: E402
 from rig.rotations import axis_angle_matrix  # noqa: E402
 
 CAREFUL = dict(turn_err_deg=0.3, wobble_deg=0.3, tilt_deg=0.3)
@@ -105,3 +106,15 @@ def test_the_choice_is_written_as_json_and_read_back():
         extra = json.loads(json.dumps(weight.extra(), allow_nan=False))
         assert CarryWeight.from_extra(extra) == weight
     assert CarryWeight.from_extra({"carry_sd": None, "carry_angle_sd": None}) is None
+
+
+def test_a_turn_fitted_exactly_is_no_statistic_of_the_twin():
+    """Three turns alone fix H's nine entries, so their residuals are zero in every replica and in the recording
+    alike: a statistic that cannot fall outside a band. With the motions in the fit they are residuals again."""
+    session, _ = generate(0, **CAREFUL)
+    alone = calibrate_recording(session, carry=TURNS_ONLY)
+    both = calibrate_recording(session, carry=PRIOR)
+    assert not [k for k in recording_statistics(session, alone) if k.startswith("gyro.turn_error")]
+    assert not alone.sensors["gyro"].extra["carry_sd"]
+    turned = {k: v for k, v in recording_statistics(session, both).items() if k.startswith("gyro.turn_error")}
+    assert len(turned) == 3 and all(abs(v) > 1e-6 for v in turned.values()), turned
