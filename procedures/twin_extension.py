@@ -20,7 +20,7 @@ from fixtures.world.effects.noise import (BiasInstability, Quantisation, RateRan
 from procedures.twin_bands import band_chance
 from procedures.twin_cause import Cause
 from procedures.twin_hold import hold_not_still
-from procedures.twin_noise import pooled_noise, quiet_noise, sampled_rows
+from procedures.twin_noise import extension_level, level_dof, pooled_noise, quiet_noise, sampled_rows
 from procedures.twin_replay import Replay
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.stats import holm
@@ -94,10 +94,11 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
             # the noise ahead of the rounding the step implies; where poses are not still, the quiet poses' (the
             # disturbance of the others is the hold_not_still cause's, not counted twice)
             white = (quiet_noise if not_still else pooled_noise)(session, rec, sensor, q)
+            nu = level_dof(session, rec, sensor, quiet=not_still)
             if not_still:
                 floors[sensor] = white
-            noise = [] if shaped else [lambda seed, s=sensor, w=white: ShapedNoise(s, taps=np.ones((3, 1)), std=w,
-                                                                                  seed=seed * 7 + 6)]
+            noise = [] if shaped else [lambda seed, s=sensor, w=white, nu=nu: ShapedNoise(
+                s, taps=np.ones((3, 1)), std=extension_level(w, nu, seed, s, Quantisation.name), seed=seed * 7 + 6)]
             causes.append(Cause(Quantisation.name, sensor, float((q * scale).max()),
                                 {"q": (q * scale).tolist(), "noise_ahead_of_rounding_raw": white.tolist()},
                                 (f"{sensor}.step", f"{sensor}.adev", f"{sensor}.psd", f"{sensor}.spread"),
@@ -105,14 +106,15 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
                                 quiet=() if shaped else (sensor,)))
         if shaped:
             std = quiet_noise(session, rec, sensor, q)
+            nu = level_dof(session, rec, sensor, quiet=True)
             floors[sensor] = std
             effect = ShapedNoise(sensor, taps=taps, std=std)
             causes.append(Cause(effect.name, sensor, effect.magnitude(),
                                 {"std_raw": std.tolist(), "taps": int(taps.shape[1]),
                                  "model": "the recording's own spectrum (longest pose), at its quieter poses' level"},
                                 (f"{sensor}.adev", f"{sensor}.psd", f"{sensor}.spread"),
-                                lambda seed, s=sensor, taps=taps, std=std: [ShapedNoise(s, taps=taps, std=std,
-                                                                                        seed=seed * 7 + 1)],
+                                lambda seed, s=sensor, taps=taps, std=std, nu=nu: [ShapedNoise(
+                                    s, taps=taps, std=extension_level(std, nu, seed, s, "shaped"), seed=seed * 7 + 1)],
                                 quiet=(sensor,)))
         mean_fam = f"{sensor}.hold_mean" if sensor == "gyro" else f"{sensor}.norm_residual"
         if {mean_fam, f"{sensor}.bias_scatter", f"{sensor}.norm_scatter"} & fams:

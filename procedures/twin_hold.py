@@ -9,7 +9,7 @@ import numpy as np
 
 from fixtures.world.effects.noise import HoldNotStill, ShapedNoise
 from procedures.twin_cause import Cause
-from procedures.twin_noise import quiet_noise, quiet_poses, quiet_spread, sampled_rows
+from procedures.twin_noise import extension_level, level_dof, quiet_noise, quiet_poses, quiet_spread, sampled_rows
 from procedures.twin_replay import Replay
 from rig.calibration.recording import RecordingCalibration
 from rig.session_data import SessionData
@@ -37,6 +37,7 @@ def hold_not_still(session: SessionData, rec: RecordingCalibration, replay: Repl
     rms = {s: float(np.sqrt(np.mean(e.sum(axis=1)))) for s, e in excess.items()}
     gains = {s: np.sqrt(3 * e) / rms[s] if rms[s] else np.zeros_like(e) for s, e in excess.items()}
     whites = {s: quiet_noise(session, rec, s) for s in quiet if s not in floors}
+    dofs = {s: level_dof(session, rec, s, quiet=True) for s in whites}
     shake = rms.get("accel", 0.0)
     rms_dps = math.degrees(rms["gyro"] if "gyro" in quiet else tilt_rate(session, rec, replay.rate_hz))
 
@@ -44,7 +45,8 @@ def hold_not_still(session: SessionData, rec: RecordingCalibration, replay: Repl
         drawn = np.random.default_rng(seed * 7 + 4).integers(len(spans), size=len(spans))
         env = {s: ((-np.inf, np.inf, np.zeros(3)),) + tuple((a, b, g[j]) for (a, b), j in zip(spans, drawn))
                for s, g in gains.items()}
-        noise = [ShapedNoise(s, taps=np.ones((3, 1)), std=w, seed=seed * 7 + 5 + 100_000 * (k + 1))
+        noise = [ShapedNoise(s, taps=np.ones((3, 1)), std=extension_level(w, dofs[s], seed, s, "hold"),
+                             seed=seed * 7 + 5 + 100_000 * (k + 1))
                  for k, (s, w) in enumerate(whites.items())]
         held = [HoldNotStill("gyro", rms_dps=rms_dps, tau_s=SHAKE_TAU_S, envelope=env["gyro"], seed=seed * 7 + 4)
                 ] if "gyro" in env else []
