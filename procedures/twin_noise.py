@@ -31,7 +31,7 @@ def white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) ->
     return np.sqrt(np.mean(stds ** 2, axis=0))
 
 
-def drawn_level(level: np.ndarray, dof: float | None, seed: int, stream: int) -> np.ndarray:
+def drawn_level(level: np.ndarray, dof: float | np.ndarray | None, seed: int, stream: int) -> np.ndarray:
     """The replica's white noise level, per axis: the recording's estimate `level`, drawn from what the poses allow it
     to be (sigma^2 ~ nu s^2 / chi^2_nu, nu = `dof`; `stream` keeps each sensor's draw for trial `seed` apart). The
     level is estimated from the recording itself; a replica that took it as known judged the most precise statistics
