@@ -69,7 +69,7 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
                                           fitted)).tolist() if carries else []
     resid = np.radians(np.r_[angle_err, carry_err])
     cal = TriadCalibration(
-        B=B, H=H, method="recording-turns (known turns and gravity carried between poses)",
+        B=B, H=H, method=_method(bool(carry_terms), bool(carries)),
         residual_rms=float(np.sqrt(np.mean(resid ** 2))) if resid.size else float("nan"),
         iterations=info["iterations"], converged=info["converged"], B_std=B_std,
         H_std=np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(3, 3), H_cov=cov,
@@ -80,6 +80,14 @@ def fit_gyro(session: SessionData, accel: TriadCalibration, poses: list[Pose], t
                **(carry.extra() if carries else {"carry_sd": None, "carry_angle_sd": None}),
                "loo_scatter_to_predicted": info["loo_scatter_to_predicted"]})
     return cal, {"turns": len(turn_terms), "carries": len(carry_terms)}
+
+
+def _method(motions_fitted: bool, motions: bool) -> str:
+    if motions_fitted:
+        return "recording-turns (known turns and gravity carried between poses)"
+    if motions:
+        return "recording-turns (known turns alone; the gravity carried between poses scored, not fitted)"
+    return "recording-turns (known turns)"
 
 
 def summed_rate(session: SessionData, rows: np.ndarray, B: np.ndarray) -> np.ndarray:
