@@ -20,7 +20,8 @@ from fixtures.world.effects.noise import (BiasInstability, Quantisation, RateRan
 from procedures.twin_bands import band_chance
 from procedures.twin_cause import Cause
 from procedures.twin_hold import hold_not_still
-from procedures.twin_noise import extension_level, level_dof, pooled_noise, quiet_noise, sampled_rows
+from procedures.twin_draws import extension_level, level_dof
+from procedures.twin_noise import pooled_noise, quiet_noise, sampled_rows
 from procedures.twin_replay import Replay
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.stats import holm

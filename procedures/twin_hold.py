@@ -9,7 +9,8 @@ import numpy as np
 
 from fixtures.world.effects.noise import HoldNotStill, ShapedNoise
 from procedures.twin_cause import Cause
-from procedures.twin_noise import extension_level, level_dof, quiet_noise, quiet_poses, quiet_spread, sampled_rows
+from procedures.twin_draws import extension_level, level_dof
+from procedures.twin_noise import quiet_noise, quiet_poses, quiet_spread, sampled_rows
 from procedures.twin_replay import Replay
 from rig.calibration.recording import RecordingCalibration
 from rig.session_data import SessionData

@@ -20,7 +20,8 @@ import numpy as np
 from fixtures.world.model import AttitudeMotion, Environment, SensorModel
 from fixtures.world.recorded import HeldAttitude, RecordedAttitude
 from procedures.twin_motion import ReplayedAttitude, attitudes, unit
-from procedures.twin_noise import noise_dof, printed_decimals, sampled_rows, white_noise
+from procedures.twin_draws import noise_dof
+from procedures.twin_noise import printed_decimals, sampled_rows, white_noise
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError

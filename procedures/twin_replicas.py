@@ -17,7 +17,7 @@ import numpy as np
 
 from fixtures.world.model import SensorModel, World
 from procedures.fork_pool import ForkPool, fork_available
-from procedures.twin_noise import drawn_level
+from procedures.twin_draws import drawn_level
 from procedures.twin_replay import Replay
 from rig.errors import CalibrationError
 from rig.io.recording import recording_session

@@ -18,7 +18,7 @@ from test_unseen_recordings import rig  # noqa: E402
 from fixtures.world.recorded import HeldAttitude, RecordedAttitude  # noqa: E402
 from procedures.twin_analysis import analyse_twin  # noqa: E402
 from procedures.twin_motion import ReplayedAttitude  # noqa: E402
-from procedures.twin_noise import drawn_level, noise_dof  # noqa: E402
+from procedures.twin_draws import drawn_level, noise_dof  # noqa: E402
 from procedures.twin_replay import reconstruct  # noqa: E402
 from procedures.twin_replicas import replica  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
