@@ -8,7 +8,7 @@ import zlib
 
 import numpy as np
 
-from procedures.twin_noise import pose_spreads, quiet_mask, sampled_rows
+from procedures.twin_noise import pose_spreads, quiet_mask, quiet_variance, sampled_rows
 from rig.calibration.recording import RecordingCalibration
 from rig.noise.still_log import is_still_log_calibration
 from rig.session_data import SessionData
@@ -63,18 +63,11 @@ def _quiet_pool_dof(spreads: np.ndarray, n: np.ndarray, draws: int = 2000) -> np
     the quiet ones at their pooled level, the others at their own spread, each pose's variance a chi-square of its
     samples. Counted from the quiet poses' samples alone, the degrees of freedom were 1.4-1.8 times too many on six
     equal white poses (`test_noise_level_dof`): a pose is in the pool where its spread came out low."""
-    near = quiet_mask(spreads, n)
     m = (n - 1.0)[:, None]
-    level = np.sum(near * m * spreads ** 2, axis=0) / np.sum(near * m, axis=0)
-    truth = np.where(near, level, spreads ** 2)
+    truth = np.where(quiet_mask(spreads, n), quiet_variance(spreads, n), spreads ** 2)
     rng = np.random.default_rng(0x51DE)
     drawn = truth * rng.chisquare(np.broadcast_to(m, truth.shape), size=(draws,) + truth.shape) / m
-    error = 1.0 / np.sqrt(2.0 * n)
-    least = np.argmin(drawn, axis=1)
-    lowest = np.take_along_axis(drawn, least[:, None, :], axis=1)
-    bound = lowest * (1.0 + 2.0 * np.sqrt(error[least][:, None, :] ** 2 + error[None, :, None] ** 2)) ** 2
-    w = (drawn <= bound) * m
-    pooled = np.sum(w * drawn, axis=1) / np.sum(w, axis=1)
+    pooled = quiet_variance(np.sqrt(drawn), n)
     return 2.0 / np.maximum((pooled.std(axis=0) / pooled.mean(axis=0)) ** 2, 1e-300)
 
 

@@ -52,9 +52,14 @@ def quiet_spread(session: SessionData, rec: RecordingCalibration, sensor: str) -
     """Per axis, the spread of the quiet poses (`quiet_poses`), raw units, rounding included: their variances pooled
     by degrees of freedom, the common level's best estimate. Their median had let a short pose's spread stand for a
     long rest's: on the MPU-6050 the 36 s rest's short-tau Allan deviations fell below every replica."""
-    spreads, n = pose_spreads(session, rec, sensor)
-    near = quiet_mask(spreads, n)
-    return np.sqrt(np.sum(near * (n[:, None] - 1) * spreads ** 2, axis=0) / np.sum(near * (n[:, None] - 1), axis=0))
+    return np.sqrt(quiet_variance(*pose_spreads(session, rec, sensor)))
+
+
+def quiet_variance(spreads: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """(..., 3) the quiet poses' variances pooled by degrees of freedom, for spreads (..., poses, 3) of n samples each
+    (a stack of recordings drawn again: `twin_draws`)."""
+    w = quiet_mask(spreads, n) * (n[:, None] - 1.0)
+    return np.sum(w * spreads ** 2, axis=-2) / np.sum(w, axis=-2)
 
 
 def pose_spreads(session: SessionData, rec: RecordingCalibration, sensor: str) -> tuple[np.ndarray, np.ndarray]:
@@ -67,10 +72,11 @@ def pose_spreads(session: SessionData, rec: RecordingCalibration, sensor: str) -
 
 
 def quiet_mask(spreads: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Which of spreads (..., poses, 3) are quiet (`quiet_poses`)."""
     error = 1.0 / np.sqrt(2.0 * n)
-    least = np.argmin(spreads, axis=0)
-    bound = spreads[least, range(3)] * (1.0 + 2.0 * np.sqrt(error[least][None, :] ** 2 + error[:, None] ** 2))
-    return spreads <= bound
+    least = np.argmin(spreads, axis=-2)
+    lowest = np.take_along_axis(spreads, least[..., None, :], axis=-2)
+    return spreads <= lowest * (1.0 + 2.0 * np.sqrt(error[least][..., None, :] ** 2 + error[:, None] ** 2))
 
 
 def quiet_noise(session: SessionData, rec: RecordingCalibration, sensor: str,
