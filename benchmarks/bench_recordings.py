@@ -5,7 +5,7 @@
   (`examples/basic_ferraris.py`: the continuous SI file and its section list, 102.4 Hz; its tests: the pre-cut
   file in counts, 204.8 Hz), with gravity 9.81 (its default, also given to ours) and the turn sense the data
   show (the importer's; imucal's default -360 deg fits the SI file, the pre-cut one turns the other way).
-* imu_tk: its published parameters for the Xsens recording (shared/reference/anchors-calibration.md 4.2, its
+* imu_tk: its published parameters for the Xsens recording (tests/data/imu_tk-xsens/PROVENANCE.md, its
   `test_imu_calib` run), g = 9.81744.
 * tomisuarez2/ImuCalibration (a Python port of imu_tk): its published parameters for its own MPU-6050 session
   (tests/data/mpu6050-tomisuarez2, PROVENANCE.md), read from its files; g = 9.80665, as it was run.
@@ -269,7 +269,7 @@ def compare(name: str, session, peer: str, peer_series, peer_time_s: float, peer
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=Path(os.environ.get("RIG_SHARED", ROOT.parent / "shared")) / "data")
+    parser.add_argument("--data", type=Path, default=ROOT / "tests" / "data")
     parser.add_argument("--only", default="si,raw,xsens,mpu,mikov")
     parser.add_argument("--mikov-repo", type=Path, help="a checkout of mikoff/imu-calib: all five of its logs")
     args = parser.parse_args()

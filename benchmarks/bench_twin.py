@@ -3,10 +3,10 @@ process (with --heldout, which adds every leave-one-out refit twice), and what i
 replicas' 1-99 % band before and after the extension, the causes named, the model tests, what stays unexplained.
 Beside the wall time, the CPU seconds of the command and its workers and the machine's load before and after it:
 on a machine shared with others the CPU seconds are the figure their work does not change (on an idle 2-core
-machine the wall time is about half of them plus the serial start). Every recording in shared/data that the
+machine the wall time is about half of them plus the serial start). Every recording in tests/data that the
 importers read is used, and the MPU-6050 still log of tests/data (README, "A still log"); a recording that is not
 there is reported as missing, not skipped silently. Prints JSON.
-Usage: python benchmarks/bench_twin.py [--replicas N] [--shared ../shared] [--only NAME]
+Usage: python benchmarks/bench_twin.py [--replicas N] [--data tests/data] [--only NAME]
 """
 
 from __future__ import annotations
@@ -50,14 +50,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--replicas", type=int, default=None, help="default: the command's own (99, fewer for long ones)")
     ap.add_argument("--only", action="append", default=None, help="this recording only (repeatable)")
-    ap.add_argument("--shared", type=Path, default=Path(os.environ.get("RIG_SHARED", ROOT.parent / "shared")))
+    ap.add_argument("--data", type=Path, default=ROOT / "tests" / "data")
     args = ap.parse_args()
-    unknown = set(args.only or ()) - set(imports(args.shared / "data"))
+    unknown = set(args.only or ()) - set(imports(args.data))
     if unknown:
         ap.error(f"--only: no recording named {', '.join(sorted(unknown))}; known: {', '.join(imports(Path('.')))}")
     out = {"replicas": args.replicas, "cpus": os.cpu_count(), "load_1min": os.getloadavg()[0], "recordings": {}}
     with tempfile.TemporaryDirectory() as tmp:
-        for name, argv in imports(args.shared / "data").items():
+        for name, argv in imports(args.data).items():
             if args.only and name not in args.only:
                 continue
             folder = Path(tmp) / name

@@ -1,4 +1,4 @@
-"""Rotations, quaternions and the two-axis table geometry of `shared/spec/conventions.md`.
+"""Rotations, quaternions and the two-axis table geometry of `docs/reference/conventions.md`.
 
 Quaternions are scalar-first `(w, x, y, z)`, Hamilton product, fixture -> world, stored with `w >= 0`.
 Matrices `R` map fixture vectors to world vectors. Functions accept a single item or a stack. The

@@ -1,6 +1,6 @@
-"""Where the project's shared material lives: `shared/` beside the repository (override with RIG_SHARED)."""
+"""Where the tests find the real recordings they run on: `tests/data`, each folder with its licence and provenance."""
 
-import os
 from pathlib import Path
 
-SHARED = Path(os.environ.get("RIG_SHARED", Path(__file__).resolve().parents[1].parent / "shared"))
+DATA = Path(__file__).resolve().parent / "data"
+DOCS = Path(__file__).resolve().parents[1] / "docs"

@@ -1,4 +1,4 @@
-"""Write and read the calibration file `rig-calibration/1` (shared/spec/calibration-json.md).
+"""Write and read the calibration file `rig-calibration/1` (docs/reference/calibration-json.md).
 
 Other programs (firmware generators, notebooks) read this file, so it is strict JSON (no NaN: an
 unknown per-sensor number such as a NaN residual is left out, elsewhere it is `null`), written

@@ -1,6 +1,6 @@
 """Read imu_tk ASCII sensor files: one row `timestamp x y z` per sample, no header.
 
-This is the layout of the IMU-TK test data (shared/data/imu_tk-xsens): white space separated,
+This is the layout of the IMU-TK test data (tests/data/imu_tk-xsens): white space separated,
 timestamp in seconds, raw counts. imu_tk's own loader (`src/io_utils.cpp`, `importAsciiData`)
 skips a malformed line with a console note; here such a line is an error naming file, line and
 column, because a silently dropped sample shifts the integration between static intervals.

@@ -1,4 +1,4 @@
-"""Read the interchange session layout `imu-session-csv/1` (shared/spec/session-csv.md).
+"""Read the interchange session layout `imu-session-csv/1` (docs/reference/session-csv.md).
 
 A session folder holds `meta.json` and `samples.csv`. Reading validates every rule of the spec and
 stops at the first broken one with a `SessionFormatError` naming file, line and column: a wrong

@@ -1,4 +1,4 @@
-"""The names and limits of the interchange layout `imu-session-csv/1` (shared/spec/session-csv.md).
+"""The names and limits of the interchange layout `imu-session-csv/1` (docs/reference/session-csv.md).
 
 The reader, the meta.json check, the column checks and the writer all follow the same spec; its file names,
 column names, allowed values and plausible ranges live here, once, so that none of those modules has to

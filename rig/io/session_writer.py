@@ -1,4 +1,4 @@
-"""Write a `SessionData` as an interchange folder (`imu-session-csv/1`, shared/spec/session-csv.md).
+"""Write a `SessionData` as an interchange folder (`imu-session-csv/1`, docs/reference/session-csv.md).
 
 Kept apart from the reader: writing needs the layout's names (rig.io.session_format) but none of the reader's
 checks. It refuses with a ValueError a session the reader would refuse for t not increasing, a quaternion that

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from rig.rotations import matrix_from_rotvec
-from tests.paths import SHARED
+from tests.paths import DATA
 
-XSENS = SHARED / "data" / "imu_tk-xsens"
+XSENS = DATA / "imu_tk-xsens"
 
 
 @pytest.fixture

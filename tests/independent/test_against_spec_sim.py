@@ -18,13 +18,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import spec_sim as sim
-from tests.paths import SHARED
+from tests.paths import DATA
 
 REPO = Path(__file__).resolve().parents[2]
 H_TARGET = 5e-4
 B_TARGET = 1e-3
 IMU_TK_G = 9.81744  # gravity of the imu_tk Xsens record (anchors-calibration.md 4.2)
-XSENS = SHARED / "data" / "imu_tk-xsens"
+XSENS = DATA / "imu_tk-xsens"
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:

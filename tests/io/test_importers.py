@@ -18,10 +18,10 @@ from rig.io.session_csv import read_session
 from rig.io.session_writer import write_session
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from paths import SHARED  # noqa: E402
+from paths import DATA  # noqa: E402
 
-FERRARIS = SHARED / "data" / "imucal-ferraris"
-XSENS = SHARED / "data" / "imu_tk-xsens"
+FERRARIS = DATA / "imucal-ferraris"
+XSENS = DATA / "imu_tk-xsens"
 RIG = [sys.executable, "-m", "rig.cli"]
 
 

@@ -9,9 +9,9 @@ import pytest
 
 from rig.errors import SessionFormatError
 from rig.io.imu_tk import read_imu_tk
-from tests.paths import SHARED
+from tests.paths import DATA
 
-DATA = SHARED / "data" / "imu_tk-xsens"
+DATA = DATA / "imu_tk-xsens"
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from rig.io.session_writer import write_session
 from rig.pipeline import calibrate_from_dir, calibrate_session
 from rig.pipeline.screening import turning_holds as _turning_holds
 from rig.session_data import HoldStats
-from tests.paths import SHARED
+from tests.paths import DATA
 
 H_REL_TOL = {"accel": 1e-4, "gyro": 2e-3, "mag": 2e-3}
 B_TOL_COUNTS = {"accel": 0.5, "gyro": 0.2, "mag": 0.5}
@@ -251,7 +251,7 @@ def test_imu_tk_xsens_end_to_end(tmp_path):
     """The real IMU-TK Xsens record: scales near the datasheet's (PROVENANCE.md: acc 415, 413, 415 counts
     per m/s^2; gyro 4778, 4758, 4766 counts per rad/s) and a valid calibration file."""
     lines = []
-    result = calibrate_from_dir(SHARED / "data" / "imu_tk-xsens", tmp_path, fmt="imu_tk", gravity=9.81744,
+    result = calibrate_from_dir(DATA / "imu_tk-xsens", tmp_path, fmt="imu_tk", gravity=9.81744,
                                 echo=lines.append)
     doc = read_calibration(tmp_path / "calibration.json")
     assert doc["source"]["format"] == "imu_tk" and doc["gravity_mps2"] == 9.81744

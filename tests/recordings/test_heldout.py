@@ -14,7 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 from ferraris_synth import G, generate  # noqa: E402
-from paths import SHARED  # noqa: E402
+from paths import DATA  # noqa: E402
 
 from rig.calibration.heldout import heldout_scores, score_series, scoring_layout, series  # noqa: E402
 from rig.calibration.recording import RecordingCalibration, calibrate_recording  # noqa: E402
@@ -25,7 +25,7 @@ from rig.calibration.result import TriadCalibration  # noqa: E402
 from rig.calibration.segments import segments_of  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 
-FERRARIS = SHARED / "data" / "imucal-ferraris"
+FERRARIS = DATA / "imucal-ferraris"
 NOISE = G / 2048          # one count of the synthetic accelerometer
 
 

@@ -1,7 +1,7 @@
 """Known effects hidden in the real recordings (issue 13, item 5): the recording tests find them blind on top of the
 real noise, with the right name, sensor and size; the untouched recordings give the same named set in at least
 90 % of resamples of their poses. Nothing here knows which recording it reads: every real recording in
-`shared/data` that imports goes through the same checks."""
+`tests/data` that imports goes through the same checks."""
 
 from __future__ import annotations
 
@@ -15,14 +15,14 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from inject import SIZES, inject
-from paths import SHARED
+from paths import DATA
 
 from rig.calibration.recording import calibrate_recording
 from rig.commands.sessions import read_any_session
 from rig.discrepancy.recording import recording_tests
 
 RIG = [sys.executable, "-m", "rig.cli"]
-DATA = SHARED / "data"
+
 IMPORTS = {
     "imu_tk-xsens": ["imu_tk", "--accel", DATA / "imu_tk-xsens/xsens_acc.mat",
                      "--gyro", DATA / "imu_tk-xsens/xsens_gyro.mat"],

@@ -14,7 +14,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ferraris_synth import generate  # noqa: E402
-from paths import SHARED  # noqa: E402
+from paths import DATA  # noqa: E402
 
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.calibration.recording_fits import turn_angle  # noqa: E402
@@ -23,7 +23,7 @@ from rig.errors import CalibrationError  # noqa: E402
 from rig.io.session_writer import write_session  # noqa: E402
 
 RIG = [sys.executable, "-m", "rig.cli"]
-FERRARIS = SHARED / "data" / "imucal-ferraris"
+FERRARIS = DATA / "imucal-ferraris"
 
 
 def rel(a, b) -> float:

@@ -11,9 +11,9 @@ from rig.turntable.errors import ProfileError
 from rig.turntable.profile import decode_bits, default_profile_path, load_profile
 from rig.turntable.status import int_to_words, words_to_int
 from rig.turntable.url import parse_url
-from tests.paths import SHARED
+from tests.paths import DOCS
 
-SPEC = SHARED / "spec" / "turntable-modbus.md"
+SPEC = DOCS / "reference" / "turntable-map.md"
 
 
 def spec_rows() -> dict[str, int]:

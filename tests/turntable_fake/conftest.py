@@ -1,6 +1,6 @@
 """Fixtures for the fake turntable: servers on each transport, raw pymodbus clients.
 
-Addresses below are copied from shared/spec/turntable-modbus.md on purpose (not imported from the
+Addresses below are copied from docs/reference/turntable-map.md on purpose (not imported from the
 fake), so a wrong constant in the fake fails these tests.
 """
 
