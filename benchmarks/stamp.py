@@ -7,10 +7,10 @@ time is part of the measurement. A benchmark calls `start(name)` before it measu
     ...measure...
     stamp.report(run, figures={"median_wall_s": 2.1}, details={...}, save=args.save)
 
-`report` prints one JSON object, `{"benchmark", "date", "commit", "machine", "load", "figures", ...details}`, and
-with `save` appends it to `benchmarks/results/<benchmark>.json` (a JSON list, oldest run first). The documentation's
-measurements page is generated from those files alone (docs/hooks/measurements.py): a figure reaches the docs only
-by being measured and saved here. `figures` are the headline numbers, flat (name -> number, string or bool) with
+`report` prints one JSON object, `{"benchmark", "command", "date", "commit", "machine", "load", "figures",
+...details}`, and with `save` appends it to `benchmarks/results/<benchmark>.json` (a JSON list, oldest run first).
+The documentation's measurements page is generated from those files alone (docs/hooks/measurements.py): a figure
+reaches the docs only by being measured and saved here. `figures` are the headline numbers, flat (name -> number, string or bool) with
 the unit in the name; `details` keep everything else the benchmark measured.
 """
 
@@ -21,6 +21,7 @@ import json
 import os
 import platform
 import subprocess
+import sys
 from pathlib import Path
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -29,8 +30,9 @@ _ROOT = Path(__file__).resolve().parents[1]
 
 
 def start(benchmark: str) -> dict:
-    """The stamp of a run of `benchmark` about to start: date (UTC), commit, machine and the load before it."""
-    return {"benchmark": benchmark,
+    """The stamp of a run of `benchmark` about to start: date (UTC), commit, machine, the load before it and the
+    command line that ran it."""
+    return {"benchmark": benchmark, "command": command_line(),
             "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
             "commit": commit(), "machine": machine(), "load": {"before": load_1min()}}
 
@@ -66,6 +68,16 @@ def add_save_option(parser) -> None:
     """`--save` on a benchmark's argparse parser."""
     parser.add_argument("--save", action="store_true",
                         help="also append the result to benchmarks/results/<benchmark>.json (the docs' tables)")
+
+
+def command_line() -> str:
+    """How this process was started, as a user would type it from the repository's root."""
+    script = Path(sys.argv[0]).resolve()
+    try:
+        script_name = str(script.relative_to(_ROOT))
+    except ValueError:
+        script_name = sys.argv[0]
+    return " ".join(["python", script_name, *sys.argv[1:]])
 
 
 def commit() -> str:
