@@ -58,6 +58,7 @@ def test_cli_reference_has_every_command(site):
     missing = [name for name in SUBCOMMANDS if f'id="rig-{name}"' not in html]
     assert not missing, f"commands missing from the CLI reference: {missing}"
     assert 'id="rig-import-csv"' in html and "--header-line" in html
+    assert "Sentinel" not in html, "an option's default shown as click's internal sentinel"
 
 
 def test_configuration_reference_has_every_key(site):
