@@ -5,13 +5,13 @@ time is part of the measurement. A benchmark calls `start(name)` before it measu
 
     run = stamp.start("bench_sim_session")
     ...measure...
-    stamp.report(run, figures={"median_wall_s": 2.1}, details={...}, save=args.save)
+    stamp.report(run, figures={"median_wall_s": median}, details={"runs": runs}, save=args.save)
 
 `report` prints one JSON object, `{"benchmark", "command", "date", "commit", "machine", "load", "figures",
 ...details}`, and with `save` appends it to `benchmarks/results/<benchmark>.json` (a JSON list, oldest run first).
 The documentation's measurements page is generated from those files alone (docs/hooks/measurements.py): a figure
-reaches the docs only by being measured and saved here. `figures` are the headline numbers, flat (name -> number, string or bool) with
-the unit in the name; `details` keep everything else the benchmark measured.
+reaches the docs only by being measured and saved here. `figures` are the headline numbers, flat (name -> number,
+string or bool) with the unit in the name; `details` keep everything else the benchmark measured.
 """
 
 from __future__ import annotations
