@@ -7,7 +7,7 @@ accuracy >= 100x slower; the 1000-run Table I in <= 2 s. SLSQP is timed twice: w
 
 from __future__ import annotations
 
-import json
+import argparse
 import time
 
 import numpy as np
@@ -17,6 +17,8 @@ from procedures.paper_table1 import run_table1
 from rig.calibration.joint import calibrate_joint
 from rig.calibration.twostep import calibrate_two_step
 from rig.calibration.vector_baselines import calibrate_sqp
+
+import stamp  # benchmarks/stamp.py
 
 G = 9.80665
 
@@ -96,6 +98,10 @@ def equal_accuracy(problems: int = 20) -> dict:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    stamp.add_save_option(parser)
+    args = parser.parse_args()
+    run = stamp.start("bench_calibration_vector")
     y, R, H, B = _problem(0)
     ours = calibrate_two_step(y, R, G)
     sqp = calibrate_sqp(y, R, G)
@@ -108,7 +114,7 @@ def main() -> None:
     t0 = time.perf_counter()
     table = run_table1(runs=1000, seed=0)
     t_table = time.perf_counter() - t0
-    print(json.dumps({
+    out = {
         "two_step_accel_20_orientations_ms": round(t_two, 4),
         "two_step_iterations": ours.iterations,
         "sqp_slsqp_analytic_gradient_ms": round(t_sqp, 3),
@@ -125,7 +131,10 @@ def main() -> None:
         "table1_optimizer_part_s": round(table["seconds"]["optimizer"], 3),
         "equal_accuracy": equal_accuracy(),
         "targets": {"two_step_ms": 0.5, "speedup_vs_sqp": 100, "table1_s": 2.0},
-    }, indent=2))
+    }
+    figures = {key: out[key] for key in ("two_step_accel_20_orientations_ms", "speedup_vs_sqp_analytic",
+                                         "joint_ml_ms", "table1_1000_runs_s")}
+    stamp.report(run, figures, out, save=args.save)
 
 
 if __name__ == "__main__":

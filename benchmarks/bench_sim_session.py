@@ -4,6 +4,7 @@ and the H/B errors against the simulator's truth."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
@@ -12,6 +13,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+import stamp  # benchmarks/stamp.py
 
 
 def one(seed: int, board: str) -> dict:
@@ -46,10 +49,19 @@ def one(seed: int, board: str) -> dict:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    stamp.add_save_option(parser)
+    args = parser.parse_args()
+    run = stamp.start("bench_sim_session")
     runs = [one(seed, board) for board in ("bsn", "wearable") for seed in (0, 1)]
     walls = [r["wall_s"] for r in runs]
-    print(json.dumps({"benchmark": "rig calibrate --sim", "target_wall_s": 5.0, "median_wall_s": float(np.median(walls)),
-                      "max_wall_s": max(walls), "runs": runs}, indent=2))
+    figures = {"median_wall_s": round(float(np.median(walls)), 3), "max_wall_s": max(walls)}
+    for board in ("bsn", "wearable"):
+        mine = [r for r in runs if r["board"] == board]
+        figures[f"{board}_median_wall_s"] = round(float(np.median([r["wall_s"] for r in mine])), 3)
+        figures[f"{board}_median_speedup_x"] = round(float(np.median([r["speedup"] for r in mine])), 1)
+    stamp.report(run, figures, {"what": "rig calibrate --sim, 2 seeds x 2 boards", "target_wall_s": 5.0,
+                                "runs": runs}, save=args.save)
 
 
 if __name__ == "__main__":

@@ -14,7 +14,6 @@ Usage: python benchmarks/bench_startup.py [--repeat N]
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import subprocess
@@ -27,6 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "io")]
 
 from io_synthetic import build_session  # noqa: E402
+import stamp  # noqa: E402  (benchmarks/stamp.py)
 
 from rig.io.session_writer import write_session  # noqa: E402
 
@@ -65,7 +65,9 @@ def slowest_imports(argv: list[str], top: int = 6) -> list[dict]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
+    stamp.add_save_option(parser)
     args = parser.parse_args()
+    run = stamp.start("bench_startup")
     session, _ = build_session(seed=1, hold_s=5.7)
     with tempfile.TemporaryDirectory() as tmp:
         folder = write_session(session, Path(tmp) / "session")
@@ -79,9 +81,10 @@ def main() -> None:
             "calibrate_from": {**timed(from_argv, args.repeat), "rows": int(len(session.t)), "target_s": 0.4,
                                "slowest_imports": slowest_imports(from_argv)},
             "repeat": args.repeat,
-            "load_average": os.getloadavg()[0],
         }
-    print(json.dumps(result, indent=2))
+    figures = {"help_median_s": result["help"]["median_s"], "help_target_s": 0.15,
+               "calibrate_from_median_s": result["calibrate_from"]["median_s"], "calibrate_from_target_s": 0.4}
+    stamp.report(run, figures, {k: v for k, v in result.items() if k != "benchmark"}, save=args.save)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,6 @@ Run: `python benchmarks/bench_turntable.py [--reads 1000] [--moves 100]`.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import platform
 import statistics
@@ -29,6 +28,8 @@ from pymodbus.client import ModbusTcpClient
 from fixtures.turntable import FakeTurntable, TurntableServer
 from rig.clock import SimClock
 from rig.turntable import TurntableLink, load_profile
+
+import stamp  # benchmarks/stamp.py
 
 
 def percentile(sorted_ms: list[float], q: float) -> float:
@@ -116,7 +117,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reads", type=int, default=1000)
     parser.add_argument("--moves", type=int, default=100)
+    stamp.add_save_option(parser)
     args = parser.parse_args()
+    run = stamp.start("bench_turntable")
     logging.disable(logging.WARNING)
     out = {
         "benchmark": "bench_turntable",
@@ -131,7 +134,16 @@ def main() -> None:
     out["target_met"] = (out["round_trip"][0]["fc03_read"]["median_ms"] < 1.0
                          and all(r["ratio_to_line"] <= 1.5 for r in out["round_trip"] if "paced" in r["transport"]
                                  or not r["transport"].startswith("rtu-pty")))
-    print(json.dumps(out, indent=2))
+    figures = {}
+    for r in out["round_trip"]:
+        name = r["transport"].replace(" ", "_").replace("-", "_")
+        figures[f"{name}_fc03_median_ms"] = r["fc03_read"]["median_ms"]
+        if r["transport"] != "rtu-pty":           # an unpaced pty has no line time to compare with
+            figures[f"{name}_ratio_to_line"] = r["ratio_to_line"]
+    for m in out["moves"]:
+        figures[f"{m['transport'].replace(' ', '_').replace('-', '_')}_moves_per_s"] = m["moves_per_s"]
+    figures["target_met"] = out["target_met"]
+    stamp.report(run, figures, {k: v for k, v in out.items() if k != "benchmark"}, save=args.save)
 
 
 if __name__ == "__main__":
