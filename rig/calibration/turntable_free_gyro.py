@@ -1,6 +1,7 @@
 """The gyroscope of a hand-held multi-position record without known rotations (imu_tk, Tedaldi et al. ICRA 2014).
 
-B is the mean of the initial static interval (eq. 41 on one hold). The poses are the accelerometer's static
+B is the mean of the initial rest (eq. 41 on one hold; `static_detect.find_initial_rest`, which the accelerometer's
+calibration names in its extra), or where the record starts moving, of the poses' still stretches. The poses are the accelerometer's static
 intervals (`turntable_free`) cut where the gyro shows the unit turning (`gyro_still`: a turn about the vertical
 leaves the accelerometer still, and a hand that lets a pose turn slowly is still for the norm of gravity, not for
 the direction the gyro carries), those still for imu_tk's 100 samples kept. H (full 3x3, mapping into the
@@ -29,35 +30,65 @@ GAP_FACTOR = 5.0            # a motion whose samples have a gap longer than this
 
 
 def turntable_free_gyro(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, accel: TriadCalibration, *,
-                        init_static_s: float, window_s: float = 1.0, columns: list[str] | None = None
-                        ) -> TriadCalibration:
+                        window_s: float = 1.0, columns: list[str] | None = None) -> TriadCalibration:
     """The gyro from the poses the calibrated accelerometer `accel` found still (its extra "intervals"), cut where
-    the gyro turns; `extra["intervals"]` are the poses it used, the motions between them its "whole_motions"."""
+    the gyro turns, and the initial rest it found or was told (its extra "initial_rest_s", "initial_rest");
+    `extra["intervals"]` are the poses used, the motions between them its "whole_motions"."""
     found = [tuple(c) for c in accel.extra["intervals"]]
-    turning = turning_threshold(t, gyro_raw, window_s=window_s, init_static_s=init_static_s)
+    rest_rows = initial_rest_rows(t, accel.extra)
+    turning = turning_threshold(t, gyro_raw, window_s=window_s, rest_rows=rest_rows, poses=found)
     intervals = long_intervals(split_turning(t, gyro_raw, found, turning, window_s=window_s), SAMPLES_PER_INTERVAL)
     if len(intervals) < 2:
         raise CalibrationError(f"turntable-free gyro: of the accelerometer's {len(found)} static intervals, "
                                f"{len(intervals)} stay still for the gyro for {SAMPLES_PER_INTERVAL} samples "
-                               f"(elsewhere it turns more than {GYRO_K:g} times the initial rest's rate): the poses were "
+                               f"(elsewhere it turns more than {GYRO_K:g} times the rest's rate): the poses were "
                                "not held still, and the motions between them cannot be told from the poses")
     g_body = accel.apply(np.array([accel_raw[a:b + 1].mean(axis=0) for a, b in intervals]))
     try:
-        gyro = calibrate_gyro_gravity(t, gyro_raw, g_body, intervals, init_static_s, columns)
+        gyro = calibrate_gyro_gravity(t, gyro_raw, g_body, intervals, rest_rows, columns)
     except CalibrationError as exc:
         if len(intervals) == len(found):
             raise
         raise CalibrationError(f"{exc} (of the accelerometer's {len(found)} static intervals, {len(intervals)} stay "
                                f"still for the gyro for {SAMPLES_PER_INTERVAL} samples: elsewhere it turns more than "
-                               f"{GYRO_K:g} times the initial rest's rate)") from None
+                               f"{GYRO_K:g} times the rest's rate)") from None
     gyro.extra["intervals"] = [list(c) for c in intervals]
     return gyro
 
 
+def initial_rest_rows(t: np.ndarray, accel_extra: dict) -> int:
+    """Rows of the initial rest the accelerometer's calibration names (0 where the record starts moving)."""
+    if accel_extra.get("initial_rest", "none") == "none":
+        return 0
+    return initial_interval(t, float(accel_extra["initial_rest_s"]))
+
+
+def rest_bias(gyro_raw: np.ndarray, rest_rows: int, stills: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray, str]:
+    """B, its standard deviation and where it came from: the initial rest's mean (imu_tk; white noise: its standard
+    error), or where the record starts moving, the mean over the poses' still stretches (its deviation from the
+    scatter of their means, which a hand's tremor and a g-sensitive gyro put beyond the noise)."""
+    if rest_rows:
+        rest = gyro_raw[:rest_rows]
+        return rest.mean(axis=0), rest.std(axis=0, ddof=1) / np.sqrt(len(rest)), "initial rest"
+    rows = np.concatenate([np.arange(a, b + 1) for a, b in stills])
+    means = np.array([gyro_raw[a:b + 1].mean(axis=0) for a, b in stills])
+    return gyro_raw[rows].mean(axis=0), means.std(axis=0, ddof=1) / np.sqrt(len(stills)), "poses"
+
+
+def still_noise(gyro_raw: np.ndarray, rest_rows: int, stills: list[tuple[int, int]]) -> np.ndarray:
+    """Per-axis standard deviation of the rate at rest (raw units): the initial rest's, or pooled over the poses'
+    still stretches about each one's mean."""
+    if rest_rows:
+        return gyro_raw[:rest_rows].std(axis=0, ddof=1)
+    dev = np.vstack([gyro_raw[a:b + 1] - gyro_raw[a:b + 1].mean(axis=0) for a, b in stills])
+    return np.sqrt(np.sum(dev * dev, axis=0) / (len(dev) - len(stills)))
+
+
 def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarray, intervals: list[tuple[int, int]],
-                           init_static_s: float, columns: list[str] | None = None) -> TriadCalibration:
-    """Gyro B from the initial rest, H from gravity directions carried across each move."""
-    B = gyro_raw[:initial_interval(t, init_static_s)].mean(axis=0)
+                           rest_rows: int, columns: list[str] | None = None) -> TriadCalibration:
+    """Gyro B from the initial rest (its first `rest_rows` rows; none: the poses), H from gravity directions carried
+    across each move."""
+    B, B_std, bias_from = rest_bias(gyro_raw, rest_rows, intervals)
     g = g_body / np.linalg.norm(g_body, axis=1, keepdims=True)
     # Only a motion recorded whole carries gravity: a logger paused between poses (or one that lost a stretch of
     # rows) leaves a motion of a few samples either side of a gap, whose integral says nothing of the rotation;
@@ -88,9 +119,8 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
                                f"{2 * len(moves)} of H's 9 entries{left}; record more motions between differently "
                                "oriented poses")
     s = _gyro_scale(moves, B, g0, g1)
-    rest = gyro_raw[:initial_interval(t, init_static_s)]
     refuse_coarse_motions(None, "the unit", moves, B, _scale_bound(moves, B, g0, g1) * np.eye(3),
-                          rest.std(axis=0, ddof=1), 1.0 / float(np.median(np.diff(t))))
+                          still_noise(gyro_raw, rest_rows, intervals), 1.0 / float(np.median(np.diff(t))))
     fun = lambda x: residuals(x.reshape(3, 3) * s, ms).ravel()
 
     def jac(x: np.ndarray, step: float = 1e-7) -> np.ndarray:
@@ -108,6 +138,9 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
     r = res.fun
     cov = np.linalg.pinv(res.jac.T @ res.jac) * float(r @ r) / max(r.size - 9, 1) * s * s
     warnings = [] if np.linalg.det(H) > 0 else [f"det(H) = {np.linalg.det(H):.3g} <= 0"]
+    if not rest_rows:
+        warnings.append(f"no initial rest: bias from the poses ({len(intervals)} still stretches; the record starts "
+                        "moving, where imu_tk takes it from a rest before the first pose)")
     if len(whole) + len(clipped) < len(intervals) - 1:
         warnings.append(f"{len(intervals) - 1 - len(whole) - len(clipped)} of {len(intervals) - 1} motions between "
                         "the rests have a gap in their samples and were left out of the gyro fit")
@@ -121,8 +154,9 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
     return TriadCalibration(B=B, H=H, method="turntable-free-gyro (gravity direction across moves, imu_tk)",
                             residual_rms=rms, iterations=int(res.nfev),
                             converged=bool(res.success), H_std=np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(3, 3),
-                            H_cov=cov, warnings=warnings,
+                            H_cov=cov, B_std=B_std, warnings=warnings,
                             extra={"moves": len(moves), "whole_motions": whole, "cost": float(0.5 * r @ r),
+                                   "bias_from": bias_from,
                                    "residual_unit": "unit gravity vector components"})
 
 
