@@ -31,8 +31,8 @@ def handheld_record(rng: np.random.Generator, *, poses: int = 30, rate_hz: float
 
     The body frame is the accelerometer frame, so the true accelerometer H is upper triangular
     (unit-diagonal misalignment times scale); the gyro H is a full matrix into that frame.
-    Starts with `rest_s` s at rest (0: with the first move); each move turns about a random body axis by 40-120 deg with a
-    smooth (zero end-rate) profile, then rests 3-4 s. The moves numbered in `vertical_turns` (0 the first) turn
+    Starts with `rest_s` s at rest (0: with the first move); each move turns about a random body axis by 40-120 deg
+    with a smooth (zero end-rate) profile, then rests 3-4 s. The moves numbered in `vertical_turns` (0 the first) turn
     about an axis `tilt_deg` from the vertical instead: gravity moves that little in the body, and the accelerometer
     barely sees them.
     """

@@ -109,7 +109,8 @@ def test_bad_shapes_are_named():
 
 def test_xsens_rest_found_in_the_data_gives_imu_tks_poses_and_calibration(xsens, xsens_cal):
     """Its user was asked for 50 s of rest and gave about 52: found without being told, the threshold and the
-    poses are imu_tk's (to a tenth of a second: the threshold moves with the rest's variance), and both sensors agree with the 50 s run well within the deviations it states."""
+    poses are imu_tk's (to a tenth of a second: the threshold moves with the rest's variance), and both sensors
+    agree with the 50 s run well within the deviations it states."""
     t, acc, gyr = xsens
     found = calibrate_turntable_free(t, acc, gyr, gravity=9.81744)
     a, ref = found["accel"], xsens_cal["accel"]
