@@ -86,12 +86,11 @@ def turntable_free_accel(t: np.ndarray, accel_raw: np.ndarray, *, gravity: float
     The static threshold is k times the accelerometer's variance over the initial rest: `init_static_s` seconds
     where given, else the rest found in the data (with `gyro_raw`, the gyro's say too), else the record's quiet
     level (`static_detect.find_initial_rest`; `extra["initial_rest_s"]`, `extra["initial_rest"]`: "given",
-    "found" or "none"). The record must hold at least MIN_INTERVALS
-    poses for >= 100 samples each. `extra` holds the chosen k, the static intervals kept ("intervals"), the samples
-    fitted ("fit_samples": the first 100 of each, as imu_tk, or every one with `pose_means`) and the whole k sweep;
-    `residual_rms` is | |a| - g | over the fitted samples and `extra["residual_rms_full_intervals"]` over every
-    sample of the intervals. Poses
-    with a sample at a rail (saturated) are left out, named with the user's `columns` (['ax', 'ay', 'az']).
+    "found" or "none"). The record must hold at least MIN_INTERVALS poses for >= 100 samples each. `extra` holds
+    the chosen k, the static intervals kept ("intervals"), the samples fitted ("fit_samples": the first 100 of each,
+    as imu_tk, or every one with `pose_means`) and the whole k sweep; `residual_rms` is | |a| - g | over the fitted
+    samples and `extra["residual_rms_full_intervals"]` over every sample of the intervals. Poses with a sample at a
+    rail (saturated) are left out, named with the user's `columns` (['ax', 'ay', 'az']).
     """
     t, accel_raw = np.asarray(t, dtype=float), checked(t, accel_raw, "accel")
     if gyro_raw is not None:
@@ -128,7 +127,7 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, rest: Ini
             if rest.accel_level > NOT_AT_REST * data.accel_level:
                 raise CalibrationError(f"turntable-free: the first {rest.seconds:g} s are not at rest (the unit moves "
                                        f"in them), though the recording says they are (initial_rest_s); the data show "
-                                       f"{'an initial rest of %.3g s' % data.seconds if data.found else 'none'}: "
+                                       f"{f'an initial rest of {data.seconds:.3g} s' if data.found else 'none'}: "
                                        "import it again without --initial-rest-s to take the rest from the data")
         if saturated:
             raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals left for every k in "
