@@ -29,7 +29,7 @@ from rig.calibration.recording_vector import vector_fit
 from rig.calibration.result import TriadCalibration
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.static_segments import check_static_segments
-from rig.calibration.turntable_free import INITIAL_REST_S, checked, turntable_free_accel
+from rig.calibration.turntable_free import checked, describe_rest, turntable_free_accel
 from rig.calibration.turntable_free_gyro import turntable_free_gyro
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
@@ -134,24 +134,24 @@ def _mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns
 
 
 def _turntable_free(session: SessionData) -> RecordingCalibration:
-    """No segments: imu_tk's method, static intervals detected in the data (a record starting at rest). A gyro
-    that cannot be calibrated from them (poses not held still, motions too coarse or clipped) is `refused`; the
-    accelerometer (and magnetometer) still are."""
+    """No segments: imu_tk's method, static intervals detected in the data (the initial rest too, unless the
+    recording says it: meta `initial_rest_s`). A gyro that cannot be calibrated from them (poses not held still,
+    motions too coarse or clipped) is `refused`; the accelerometer (and magnetometer) still are."""
     if "accel" not in session.raw or "gyro" not in session.raw:
         raise CalibrationError(f"{session.source}: a recording without segments needs an accelerometer and a "
                                "gyroscope (imu_tk's turntable-free method)")
     accel, gyro = session.raw["accel"], session.raw["gyro"]
     rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
     t, accel, gyro = session.t[rows], accel[rows], gyro[rows]
-    rest = float(session.meta.get("initial_rest_s") or INITIAL_REST_S)
+    rest = session.meta.get("initial_rest_s")           # None: found in the data
     columns = {s: imported_columns(session, s) for s in ("accel", "gyro")}
     sensors, refused = {}, {}
     try:                                                # name the recording, as every other refusal here does
         sensors["accel"] = turntable_free_accel(t, accel, gravity=session.gravity, init_static_s=rest,
-                                                columns=columns["accel"], pose_means=True)
+                                                columns=columns["accel"], pose_means=True, gyro_raw=gyro)
         try:
             sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
-                                                  init_static_s=rest, columns=columns["gyro"])
+                                                  columns=columns["gyro"])
         except CalibrationError as exc:
             refused["gyro"] = f"{session.source}: {exc}"
     except (CalibrationError, ValueError) as exc:
@@ -159,8 +159,8 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     intervals = (sensors.get("gyro") or sensors["accel"]).extra["intervals"]
     index = np.flatnonzero(rows)
     poses = [Pose(f"static {k}", index[a:b + 1], None, DEFAULT_TILT_SD_DEG) for k, (a, b) in enumerate(intervals)]
-    warnings = ["no segments: static intervals detected in the data (imu_tk's turntable-free method; the record must "
-                "start with a long rest)"]
+    warnings = ["no segments: static intervals detected in the data (imu_tk's turntable-free method; "
+                f"{describe_rest(sensors['accel'].extra)})"]
     if "mag" in session.raw:
         sensors["mag"], mag_warnings = _mag(session, sensors["accel"], poses, [], None)
         warnings += mag_warnings

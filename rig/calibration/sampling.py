@@ -11,6 +11,12 @@ leaves the schemes second order). The rate noise's own share of d (the angle ran
 taken out, and what is left is set against that noise: more than MARGIN times it, H cannot be trusted to its
 stated uncertainty and the recording is refused, naming the rotation between samples that could be integrated
 (the error grows as the square of the step, so the limit is the worst step times sqrt(MARGIN * noise / error)).
+
+That refusal is the turntable's (`rig.pipeline.solving`). A hand recording's gyro (`turntable_free_gyro`) states
+the integration error in its deviation instead (`carried_gravity`) and is judged against that deviation
+(`HandIntegration`): a warning where step doubling shows more error than the deviation would hold without it, a
+refusal only where the deviation stated is more than a calibration can be told to, or step doubling shows far more
+error than it covers.
 """
 
 from __future__ import annotations
@@ -107,6 +113,61 @@ def refuse_coarse_motions(source: str | None, what: str, moves: list[MoveStream]
     if found.too_coarse:
         raise CalibrationError(f"{source + ': ' if source else ''}gyro: {found.refusal(what, rate_hz)}")
     return found
+
+
+HAND_TOLD_REL = 0.05   # a gyro H told by hand motions to no better than this (its stated deviation, relative) is not
+# calibrated: a MEMS gyro's datasheet gives its scale to 1-3 %
+HAND_MARGIN = 10.0     # step doubling's integration error beyond this many times what the stated deviation covers:
+# the fit's account of the rate between samples (`carried_gravity`) no longer holds. Its order-2 reading overstates
+# a smooth motion's error up to five times (the cubic is fourth order there); synthetic quick hand motions at 100 Hz
+# whose stated deviation covered their error (RMS z near 1) read 1.3-2.9 times, a hand session at 5 Hz 3.1.
+
+
+@dataclass
+class HandIntegration:
+    """What integrating a hand recording's motions at their sample rate leaves, against the deviation its gyro's
+    H states (`turntable_free_gyro`): step doubling (`coarseness`) and the fit's own account."""
+
+    found: Coarseness
+    stated_rel: float         # H's stated deviation (RMS over its diagonal) relative to its mean diagonal
+    without_rel: float        # the same without the share of the rate between samples
+    rate_hz: float | None
+
+    @property
+    def error_rel(self) -> float:
+        """Step doubling's integration error per motion relative to the angle the motions turn."""
+        return self.found.error_rad / self.found.angle_rad if self.found.angle_rad > 0 else 0.0
+
+    @property
+    def quick(self) -> bool:
+        """Motions quick for the sample rate: the integration error step doubling shows is beyond the deviation
+        H would state without it."""
+        return self.error_rel > self.without_rel
+
+    @property
+    def refused(self) -> bool:
+        return self.stated_rel > HAND_TOLD_REL or self.error_rel > HAND_MARGIN * self.stated_rel
+
+    def _turns(self) -> str:
+        at = f" (samples at {self.rate_hz:.3g} Hz)" if self.rate_hz else ""
+        return f"the unit turns up to {self.found.worst_deg:.3g} deg between two gyro samples{at}"
+
+    def warning(self) -> str:
+        return (f"quick motions for the sample rate: {self._turns()}; integrating them leaves about "
+                f"{1e3 * self.found.error_rad:.2g} mrad per motion (found by integrating every second sample), and "
+                f"H_std takes in the integration error: {100 * self.stated_rel:.2g} % of H, "
+                f"{100 * self.without_rel:.2g} % without it")
+
+    def refusal(self) -> str:
+        if self.stated_rel > HAND_TOLD_REL:
+            return (f"{self._turns()}; the gravity its {self.found.motions} motions carry tells H only to "
+                    f"{100 * self.stated_rel:.3g} % (its stated deviation, the integration error of the sample rate "
+                    f"included), more than the {100 * HAND_TOLD_REL:g} % a calibration must be told to: sample faster "
+                    "or move slower")
+        return (f"{self._turns()}; integrating every second sample moves its {self.found.motions} motions by "
+                f"{1e3 * self.found.error_rad:.3g} mrad, {self.error_rel / self.stated_rel:.3g} times the "
+                f"{100 * self.stated_rel:.2g} % of H its stated deviation covers, more than the {HAND_MARGIN:g} times "
+                "the fit can tell: sample faster or move slower")
 
 
 HOLE_PERIODS = 1.5   # an interval longer than this many sample periods has lost samples ...

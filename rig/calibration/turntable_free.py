@@ -1,6 +1,10 @@
 """Calibration without known rotations (hand-held multi-position data such as imu_tk's Xsens set).
 
 Follows imu_tk (Tedaldi et al., ICRA 2014), with our model `u = H (y - B)`:
+* The initial rest (`static_detect.find_initial_rest`): the still stretch the record starts with, found in the data
+  unless the recording says its length (imu_tk asks its user for 50 s). Its accelerometer variance is the unit of
+  the static threshold and its gyro mean the gyro's bias; a record that starts moving takes the threshold from its
+  quietest stretches and the bias from its poses.
 * Accelerometer (here): static intervals detected from the data for k = 2..10 (imu_tk's sweep); for
   each k the first 100 samples of every interval longer than that are fitted to `|H (y - B)| = g` with H upper
   triangular (imu_tk's convention: the accelerometer frame *is* the body frame, no rotation is
@@ -25,35 +29,41 @@ from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.static_detect import (
     SAMPLES_PER_INTERVAL,
+    InitialRest,
     detect_static_intervals,
+    find_initial_rest,
     first_samples,
-    initial_interval,
     long_intervals,
-    moving_variance_norm,
-    window_samples,
 )
 from rig.calibration.turntable_free_gyro import turntable_free_gyro
 from rig.errors import CalibrationError
 
 MIN_INTERVALS = 10          # the accelerometer's 9 unknowns and one pose to spare, so that its fit has a residual
 IMU_TK_INTERVALS = 12       # imu_tk's own minimum: fewer is fitted, with a warning
-INITIAL_REST_S = 50.0       # imu_tk's initial static interval, unless the recording says its own (initial_rest_s)
+NOT_AT_REST = 100.0         # a given initial rest whose accelerometer variance is this many times the rest found in
+# the data (or the record's quiet level) holds a motion: its thresholds merge the poses
 UPPER = np.triu_indices(3)
 
 
 def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, *, gravity: float = 9.80665,
-                             init_static_s: float = INITIAL_REST_S, k_values: range | tuple = range(2, 11),
+                             init_static_s: float | None = None, k_values: range | tuple = range(2, 11),
                              window_s: float = 1.0, columns: dict[str, list[str]] | None = None
                              ) -> dict[str, TriadCalibration]:
     """{'accel': ..., 'gyro': ...} from raw counts of a hand-held multi-position record (`turntable_free_accel`,
-    then `turntable_free_gyro`)."""
+    then `turntable_free_gyro`); `init_static_s`: the initial rest's length where known (imu_tk's 50 s), else
+    found in the data."""
     t, accel_raw, gyro_raw = np.asarray(t, dtype=float), checked(t, accel_raw, "accel"), checked(t, gyro_raw, "gyro")
     columns = columns or {}
     accel = turntable_free_accel(t, accel_raw, gravity=gravity, init_static_s=init_static_s, k_values=k_values,
-                                 window_s=window_s, columns=columns.get("accel"))
-    gyro = turntable_free_gyro(t, accel_raw, gyro_raw, accel, init_static_s=init_static_s, window_s=window_s,
-                               columns=columns.get("gyro"))
+                                 window_s=window_s, columns=columns.get("accel"), gyro_raw=gyro_raw)
+    gyro = turntable_free_gyro(t, accel_raw, gyro_raw, accel, window_s=window_s, columns=columns.get("gyro"))
     return {"accel": accel, "gyro": gyro}
+
+
+def describe_rest(accel_extra: dict) -> str:
+    """What a turntable-free accelerometer's calibration took for the initial rest, in words."""
+    origin = accel_extra.get("initial_rest", "none")
+    return InitialRest(0, float(accel_extra.get("initial_rest_s", 0.0)), origin, 0.0).describe()
 
 
 def checked(t: np.ndarray, y: np.ndarray, name: str) -> np.ndarray:
@@ -68,30 +78,35 @@ def checked(t: np.ndarray, y: np.ndarray, name: str) -> np.ndarray:
 
 
 def turntable_free_accel(t: np.ndarray, accel_raw: np.ndarray, *, gravity: float = 9.80665,
-                         init_static_s: float = INITIAL_REST_S, k_values: range | tuple = range(2, 11),
+                         init_static_s: float | None = None, k_values: range | tuple = range(2, 11),
                          window_s: float = 1.0, columns: list[str] | None = None,
-                         pose_means: bool = False) -> TriadCalibration:
+                         pose_means: bool = False, gyro_raw: np.ndarray | None = None) -> TriadCalibration:
     """The accelerometer of a hand-held multi-position record, imu_tk's way.
 
-    The record must start with `init_static_s` seconds at rest (the threshold) and hold at least MIN_INTERVALS
-    poses for >= 100 samples each. `extra` holds the chosen k, the static intervals kept ("intervals"), the samples
-    fitted ("fit_samples": the first 100 of each, as imu_tk, or every one with `pose_means`) and the whole k sweep;
-    `residual_rms` is | |a| - g | over the fitted samples and `extra["residual_rms_full_intervals"]` over every
-    sample of the intervals. Poses
-    with a sample at a rail (saturated) are left out, named with the user's `columns` (['ax', 'ay', 'az']).
+    The static threshold is k times the accelerometer's variance over the initial rest: `init_static_s` seconds
+    where given, else the rest found in the data (with `gyro_raw`, the gyro's say too), else the record's quiet
+    level (`static_detect.find_initial_rest`; `extra["initial_rest_s"]`, `extra["initial_rest"]`: "given",
+    "found" or "none"). The record must hold at least MIN_INTERVALS poses for >= 100 samples each. `extra` holds
+    the chosen k, the static intervals kept ("intervals"), the samples fitted ("fit_samples": the first 100 of each,
+    as imu_tk, or every one with `pose_means`) and the whole k sweep; `residual_rms` is | |a| - g | over the fitted
+    samples and `extra["residual_rms_full_intervals"]` over every sample of the intervals. Poses with a sample at a
+    rail (saturated) are left out, named with the user's `columns` (['ax', 'ay', 'az']).
     """
-    return _accel_sweep(np.asarray(t, dtype=float), checked(t, accel_raw, "accel"), gravity, init_static_s,
-                        k_values, window_s, columns, pose_means)
+    t, accel_raw = np.asarray(t, dtype=float), checked(t, accel_raw, "accel")
+    if gyro_raw is not None:
+        gyro_raw = checked(t, gyro_raw, "gyro")
+    rest = find_initial_rest(t, accel_raw, gyro_raw, window_s=window_s, given_s=init_static_s)
+    return _accel_sweep(t, accel_raw, gravity, rest, k_values, window_s, columns, pose_means)
 
 
-def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_static_s: float, k_values,
+def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, rest: InitialRest, k_values,
                  window_s: float, columns: list[str] | None = None, pose_means: bool = False) -> TriadCalibration:
     """imu_tk's threshold sweep: detect, fit, keep the k with the least cost."""
     best, sweep = None, []
     found, pinned = pinned_rows(accel_raw)
     saturated = 0
     for k in k_values:
-        intervals = detect_static_intervals(t, accel_raw, window_s=window_s, init_static_s=init_static_s, k=k)
+        intervals = detect_static_intervals(t, accel_raw, window_s=window_s, threshold=k * rest.accel_level)
         intervals, spoiled = unpinned(intervals, pinned)
         chunks = first_samples(intervals, SAMPLES_PER_INTERVAL)
         saturated = max(saturated, len(long_intervals(spoiled, SAMPLES_PER_INTERVAL)))
@@ -104,17 +119,16 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
             best = {"k": k, "chunks": chunks, "intervals": long_intervals(intervals, SAMPLES_PER_INTERVAL),
                     "B": B, "H": H, "cost": cost, "saturated": len(long_intervals(spoiled, SAMPLES_PER_INTERVAL))}
     if best is None:
-        n0 = initial_interval(t, init_static_s)
-        quiet = np.nanpercentile(moving_variance_norm(accel_raw, window_samples(t, window_s)), 10) \
-            if len(t) > window_samples(t, window_s) else np.nan
-        if np.linalg.norm(accel_raw[:n0].var(axis=0, ddof=1)) > 100 * quiet:
-            # The thresholds are k times the variance of the first init_static_s: a record whose rest is shorter
-            # moves inside that span, every window is 'static' and the poses merge into one; the count of
-            # intervals then blames poses a user did record.
-            raise CalibrationError(f"turntable-free: the first {init_static_s:g} s are not at rest (the unit moves "
-                                   "in them); imu_tk's method takes its static threshold and the gyro bias from an "
-                                   f"initial rest of {init_static_s:g} s, so record one before the first pose "
-                                   "(or say the rest the recording has: `rig import ... --initial-rest-s S`)")
+        if rest.origin == "given":
+            # The thresholds are k times the variance of the rest said: a record whose rest is shorter moves inside
+            # that span, every window is 'static' and the poses merge into one; the count of intervals then blames
+            # poses a user did record.
+            data = find_initial_rest(t, accel_raw, window_s=window_s)
+            if rest.accel_level > NOT_AT_REST * data.accel_level:
+                raise CalibrationError(f"turntable-free: the first {rest.seconds:g} s are not at rest (the unit moves "
+                                       f"in them), though the recording says they are (initial_rest_s); the data show "
+                                       f"{f'an initial rest of {data.seconds:.3g} s' if data.found else 'none'}: "
+                                       "import it again without --initial-rest-s to take the rest from the data")
         if saturated:
             raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals left for every k in "
                                    f"{list(k_values)} once the {saturated} with a saturated accelerometer are left "
@@ -127,7 +141,9 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
         norm = np.linalg.norm((accel_raw[idx] - best["B"]) @ best["H"].T, axis=1)
         return float(np.sqrt(np.mean((gravity - norm) ** 2)))
 
-    warnings = [f"{rail_names('accel', found, columns)}: {best['saturated']} of "
+    warnings = [] if rest.found else [f"{rest.describe()}: the static threshold is taken from the record's quietest "
+                                      "stretches rather than from a rest"]
+    warnings += [f"{rail_names('accel', found, columns)}: {best['saturated']} of "
                 f"{best['saturated'] + len(best['intervals'])} static intervals read a sample at a rail and were left "
                 "out of the fit "
                 "(saturated: the pose's gravity beyond the range)"] if best["saturated"] else []
@@ -145,6 +161,7 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, init_stat
                                    + ("; each pose's mean)" if pose_means else ")"),
                             residual_rms=rms(fitted), iterations=len(sweep), warnings=warnings + few,
                             **spread, extra={"k": best["k"], "cost": best["cost"], "uncertainty": basis,
+                                   **rest.to_extra(),
                                    "fit_samples": [list(c) for c in fitted],
                                    "intervals": [list(c) for c in best["intervals"]],
                                    "residual_rms_full_intervals": rms(best["intervals"]), "k_sweep": sweep})

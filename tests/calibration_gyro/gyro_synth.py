@@ -26,13 +26,13 @@ def rel_err(H: np.ndarray, H_true: np.ndarray) -> float:
 
 def handheld_record(rng: np.random.Generator, *, poses: int = 30, rate_hz: float = 100.0, gravity: float = 9.80665,
                     accel_noise: float = 0.01, gyro_noise: float = 0.003, vertical_turns: tuple[int, ...] = (),
-                    tilt_deg: float = 0.0):
+                    tilt_deg: float = 0.0, rest_s: float = 50.0):
     """A hand-held multi-position record with its truth (imu_tk-like, no known rotations).
 
     The body frame is the accelerometer frame, so the true accelerometer H is upper triangular
     (unit-diagonal misalignment times scale); the gyro H is a full matrix into that frame.
-    Starts with 50 s at rest; each move turns about a random body axis by 40-120 deg with a
-    smooth (zero end-rate) profile, then rests 3-4 s. The moves numbered in `vertical_turns` (0 the first) turn
+    Starts with `rest_s` s at rest (0: with the first move); each move turns about a random body axis by 40-120 deg
+    with a smooth (zero end-rate) profile, then rests 3-4 s. The moves numbered in `vertical_turns` (0 the first) turn
     about an axis `tilt_deg` from the vertical instead: gravity moves that little in the body, and the accelerometer
     barely sees them.
     """
@@ -53,7 +53,8 @@ def handheld_record(rng: np.random.Generator, *, poses: int = 30, rate_hz: float
         fs.append(np.tile(R.T @ f_world, (n, 1)))
         ws.append(np.zeros((n, 3)))
 
-    rest(50.0)
+    if rest_s > 0:
+        rest(rest_s)
     for move in range(poses):
         axis = rng.normal(0, 1, 3)
         tilted = [np.sin(np.radians(tilt_deg)), 0.0, np.cos(np.radians(tilt_deg))]

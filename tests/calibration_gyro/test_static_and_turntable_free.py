@@ -18,8 +18,9 @@ def xsens():
 
 @pytest.fixture(scope="module")
 def xsens_cal(xsens):
+    """As imu_tk ran it: its initial interval set to 50 s."""
     t, acc, gyr = xsens
-    return calibrate_turntable_free(t, acc, gyr, gravity=9.81744)
+    return calibrate_turntable_free(t, acc, gyr, gravity=9.81744, init_static_s=50.0)
 
 
 def test_window_is_imu_tk_101_samples_at_100_hz():
@@ -104,3 +105,18 @@ def test_bad_shapes_are_named():
     t = np.arange(10.0)
     with pytest.raises(ValueError, match="gyro must have shape"):
         calibrate_turntable_free(t, np.zeros((10, 3)), np.zeros((9, 3)))
+
+
+def test_xsens_rest_found_in_the_data_gives_imu_tks_poses_and_calibration(xsens, xsens_cal):
+    """Its user was asked for 50 s of rest and gave about 52: found without being told, the threshold and the
+    poses are imu_tk's (to a tenth of a second: the threshold moves with the rest's variance), and both sensors
+    agree with the 50 s run well within the deviations it states."""
+    t, acc, gyr = xsens
+    found = calibrate_turntable_free(t, acc, gyr, gravity=9.81744)
+    a, ref = found["accel"], xsens_cal["accel"]
+    assert a.extra["initial_rest"] == "found" and 50.0 <= a.extra["initial_rest_s"] <= 53.0, a.extra["initial_rest_s"]
+    assert a.extra["k"] == ref.extra["k"] and len(a.extra["intervals"]) == len(ref.extra["intervals"])
+    assert np.abs(np.subtract(a.extra["intervals"], ref.extra["intervals"])).max() <= 10   # 0.1 s: the threshold
+    for sensor in ("accel", "gyro"):
+        cal, told = found[sensor], xsens_cal[sensor]
+        assert (np.abs(cal.H - told.H) <= 0.5 * told.H_std + 1e-15).all(), sensor

@@ -5,7 +5,7 @@ import numpy as np
 
 from gyro_synth import handheld_record, rel_err, rng  # noqa: F401  (fixture)
 from rig.calibration.gyro_still import split_turning, turning_threshold
-from rig.calibration.static_detect import detect_static_intervals
+from rig.calibration.static_detect import detect_static_intervals, find_initial_rest
 from rig.calibration.turntable_free import calibrate_turntable_free
 
 VERTICAL = (4, 11)          # the moves into poses 5 and 12 turn about the vertical
@@ -15,10 +15,14 @@ def test_the_poses_either_side_of_a_turn_about_the_vertical_are_found_apart(rng)
     t, acc, gyr, truth = handheld_record(rng, poses=20, vertical_turns=VERTICAL)
     merged = detect_static_intervals(t, acc, k=6)
     assert len(merged) == truth["poses"] + 1 - len(VERTICAL), "the premise: the accelerometer alone merges them"
-    intervals = split_turning(t, gyr, merged, turning_threshold(t, gyr))
-    assert len(intervals) == truth["poses"] + 1
-    for (a, b), (ra, rb) in zip(intervals, truth["rests"]):
-        assert ra - 50 <= a <= ra + 60 and rb - 60 <= b <= rb + 50   # within 0.5-0.6 s of the true rest
+    rest = find_initial_rest(t, acc, gyr)
+    assert abs(rest.seconds - 50.0) < 1.0, rest
+    # the level from the initial rest, and from the poses alone (a record that starts moving)
+    for level in (dict(rest_rows=rest.rows), dict(poses=merged)):
+        intervals = split_turning(t, gyr, merged, turning_threshold(t, gyr, **level))
+        assert len(intervals) == truth["poses"] + 1, level.keys()
+        for (a, b), (ra, rb) in zip(intervals, truth["rests"]):
+            assert ra - 50 <= a <= ra + 60 and rb - 60 <= b <= rb + 50   # within 0.5-0.6 s of the true rest
 
 
 def test_the_gyro_calibrated_across_them_is_as_close_as_without_them(rng):

@@ -42,13 +42,15 @@ def test_a_slow_logger_whose_moves_can_still_be_integrated_is_calibrated_within_
 def test_a_hand_recording_logged_too_slowly_is_refused_by_calibrate_and_discrepancy(tmp_path):
     """imu_tk's method on a 1.5 Hz log (poses held long enough for its 100 samples): each hand motion is two or three
     samples, and the gyro came out 4.4 times too large with exit 0. `rig calibrate` must refuse the gyro on a line
-    naming the recording (its accelerometer written, exit 1), and so must the twin, which replays the motions at the
-    gyro's rate: its accelerometer's poses alone are analysed (exit 1, the gyro not analysed, with the reason)."""
+    naming the recording and how loosely its motions tell H (its accelerometer written, exit 1), and so must the
+    twin, which replays the motions at the gyro's rate: its accelerometer's poses alone are analysed (exit 1, the
+    gyro not analysed, with the reason)."""
     rec = recording(7, rate=1.5, poses=14, rest_s=100.0, pose_s=(80.0, 90.0))
     folder = imported(tmp_path, write_csv(tmp_path / "slow.csv", rec))
     done = rig("calibrate", "--from", str(folder), "--out", str(tmp_path / "cal"), "--no-progress")
     why = gyro_not_calibrated(done, tmp_path / "cal")
     assert str(folder) in why and "deg between two gyro samples" in why, why
+    assert "tells H only to" in why and "%" in why, why             # how far, in numbers: what the fit can tell
     done = rig("discrepancy", str(folder), "--json", str(tmp_path / "d.json"), "--replicas", "10")
     line = one_clear_line(done)
     assert done.returncode == 1 and line.startswith("NOT analysed: gyro:") and "deg between two gyro samples" in line, \

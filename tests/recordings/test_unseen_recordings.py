@@ -176,11 +176,21 @@ def test_a_half_empty_sample_is_refused_at_the_line_of_the_users_file(tmp_path):
     assert done.returncode == 2 and "is not still" in one_clear_line(done), done.stderr
 
 
-def test_a_rest_shorter_than_imu_tks_is_named_as_the_reason(tmp_path):
-    """Sixteen poses after an 8 s rest (imu_tk's method wants 50 s): the threshold taken over a span that moves
-    merged every pose into one, and the refusal asked for more poses than the sixteen recorded. It must name the
-    rest instead (a limitation of the method: one line, no result)."""
-    folder = imported(tmp_path, write_csv(tmp_path / "short_rest.csv", recording(6, poses=16, rest_s=8.0)))
+def test_a_rest_shorter_than_imu_tks_is_found_and_a_rest_said_wrongly_is_named_as_the_reason(tmp_path):
+    """Sixteen poses after an 8 s rest (imu_tk's method wants 50 s): taken over a span that moves, the threshold
+    merged every pose into one, and the refusal asked for more poses than the sixteen recorded. The rest is found
+    in the data now; where the recording says 50 s anyway, the refusal names the rest and what the data show (one
+    line, no result)."""
+    rec = recording(6, poses=16, rest_s=8.0)
+    folder = imported(tmp_path / "found", write_csv(tmp_path / "short_rest.csv", rec))
     done = rig("calibrate", "--from", str(folder), "--out", str(tmp_path / "cal"), "--no-progress")
+    assert done.returncode == 0, (done.returncode, done.stdout, done.stderr)
+    cal = json.loads((tmp_path / "cal" / "calibration.json").read_text())["sensors"]
+    assert 7.0 < cal["accel"]["initial_rest_s"] <= 8.0 and len(cal["accel"]["intervals"]) == 16, cal["accel"]
+    H = np.array(cal["gyro"]["H"])
+    assert np.abs(np.linalg.svd(H @ np.linalg.inv(rec["Hg"]), compute_uv=False) - 1).max() < 0.01
+    said = imported(tmp_path / "said", tmp_path / "short_rest.csv", "--initial-rest-s", "50")
+    done = rig("calibrate", "--from", str(said), "--out", str(tmp_path / "cal2"), "--no-progress")
     assert done.returncode == 3, (done.returncode, done.stdout, done.stderr)
-    assert "the first 50 s are not at rest" in one_clear_line(done)
+    line = one_clear_line(done)
+    assert "the first 50 s are not at rest" in line and "the data show an initial rest of 7." in line, line
