@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.calibration.field_norm import data_field_norm, to_data_field
+from rig.calibration.mag_alone import field_from_data_warning
 from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
 from rig.calibration.recording_checks import imported_columns
 from rig.calibration.recording_vector import gravity_directions
@@ -35,13 +37,18 @@ RAIL_SIGMAS = 3.0
 RAIL_WINDOW = 9
 
 
-def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], norm: float,
+def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], norm: float | None,
                             turns: list[tuple[np.ndarray, np.ndarray, float]] = (),
-                            left_out_rows: np.ndarray | None = None) -> tuple[TriadCalibration, list[str]]:
+                            left_out_rows: np.ndarray | None = None,
+                            raw_unit: str = "counts") -> tuple[TriadCalibration, list[str]]:
     """The magnetometer's calibration in the accelerometer's frame, and warnings (poses left out). `turns`: (rows,
     axis in the accelerometer's frame, its standard deviation in rad) of turns about a fixed axis, along which the field stays the same: a
     six-face session's faces, put down with the box against one edge, leave the rotation about an axis open that
-    its turns fix (7 deg off, stated as 1, before they were used)."""
+    its turns fix (7 deg off, stated as 1, before they were used). `norm` None: the recording does not say the
+    local field magnitude, and the one its samples show is taken (`field_norm`; `raw_unit` the samples' unit).
+    The dip (the field's angle below the horizon, the same in every still pose: the dot-product invariant of
+    Kok and Schon, "Magnetometer calibration using inertial sensors", IEEE Sensors J. 16(14), 2016, sec. III)
+    comes with its standard deviation."""
     y_all = session.raw["mag"]
     usable = ~np.isnan(y_all).any(axis=1)
     warnings = []
@@ -59,6 +66,9 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
         raise CalibrationError(f"{session.source}: mag: {len(poses)} still poses with magnetometer samples; its "
                                f"alignment with the accelerometer needs at least {MIN_POSES}")
     y = y_all[usable][::max(1, int(usable.sum()) // MAX_SAMPLES)]
+    from_data = norm is None
+    if from_data:
+        norm = data_field_norm(sphere_start(y, 1.0)[1])
     B, S = sphere_start(y, norm)
     kept, named = _undisturbed(session, poses, usable, B, S, norm)
     if named:
@@ -76,6 +86,15 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
     groups = [(means, g)] + [_turn_group(y_all, rows, axis) for rows, axis, _ in turns]
     Q, _ = best_rotation(S, B, groups, norm)
     B, H, cov, info = joint_fit(y, groups, norm, B, Q @ S, [sd for *_, sd in turns])
+    field = {"field_uT_source": "given"}
+    if from_data:
+        scaled = to_data_field(H, norm, cov[3:, 3:], cov[:3, 3:])
+        info["norm_rms"] *= scaled.field / norm                 # a share of the field, in its new magnitude
+        H, cov[3:, 3:], cov[:3, 3:], norm = scaled.H, scaled.H_cov, scaled.B_H_cov, scaled.field
+        cov[3:, :3] = cov[:3, 3:].T
+        field = {"field_uT_source": "data", "field_magnitude": norm, "field_magnitude_std": scaled.field_std,
+                 "field_magnitude_unit": raw_unit, **({"unit": raw_unit} if raw_unit != "uT" else {})}
+        warnings.append(field_from_data_warning(norm, scaled.field_std, raw_unit))
     if info["dip_deg"] < 0:
         warnings.append(f"mag: the field points {-info['dip_deg']:.0f} deg up from the horizon: right in the southern "
                         "magnetic hemisphere; in the northern one a magnetometer column has the opposite sign (a "
@@ -90,7 +109,8 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
         B_std=np.sqrt(np.clip(np.diag(cov)[:3], 0, None)), H_std=np.sqrt(np.clip(np.diag(cov)[3:], 0, None)).reshape(3, 3),
         B_cov=cov[:3, :3], H_cov=cov[3:, 3:],
         extra={"poses": [p.name for p in poses], "samples": int(len(y)), "dip_deg": info["dip_deg"],
-               "dip_rms_deg": float(np.degrees(info["dot_rms"])), "pose_norm_error": pose_err.tolist()}), warnings
+               "dip_std_deg": info["dip_std_deg"], "dip_rms_deg": float(np.degrees(info["dot_rms"])),
+               "pose_norm_error": pose_err.tolist(), **field}), warnings
 
 
 def near_rails(y: np.ndarray, found: list, poses: list[Pose]) -> np.ndarray:
