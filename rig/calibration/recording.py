@@ -76,8 +76,6 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
         raise ValueError("calibrate_recording: an accelerometer calibration given was fitted on every pose; it cannot "
                          "stand for a refit that leaves out a pose")
     rec = _calibrate_linear(session, leave_out, carry, gyro_start, accel)
-    for name, cal in rec.sensors.items():
-        cal.extra.setdefault("frame", "accel")
     if g_sensitivity and "gyro" in rec.sensors:
         left = set((leave_out or {}).get("poses", ()))
         gyro = with_g_sensitivity(session, rec.sensors, [p.rows for i, p in enumerate(rec.poses) if i not in left],
@@ -85,6 +83,8 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
                                                               rec.sensors["accel"]).sensors["gyro"])
         if gyro is not None:
             rec.sensors["gyro"] = gyro
+    for cal in rec.sensors.values():
+        cal.extra.setdefault("frame", "accel")
     return rec
 
 

@@ -109,8 +109,31 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
         B_std=np.sqrt(np.clip(np.diag(cov)[:3], 0, None)), H_std=np.sqrt(np.clip(np.diag(cov)[3:], 0, None)).reshape(3, 3),
         B_cov=cov[:3, :3], H_cov=cov[3:, 3:],
         extra={"poses": [p.name for p in poses], "samples": int(len(y)), "dip_deg": info["dip_deg"],
-               "dip_std_deg": info["dip_std_deg"], "dip_rms_deg": float(np.degrees(info["dot_rms"])),
+               "dip_std_deg": _dip_std_deg(info["dip_std_deg"], session, accel, poses, means, B, H), "dip_rms_deg": float(np.degrees(info["dot_rms"])),
                "pose_norm_error": pose_err.tolist(), **field}), warnings
+
+
+def _dip_std_deg(fit_sd_deg: float, session: SessionData, accel: TriadCalibration, poses: list[Pose],
+                 means: np.ndarray, B: np.ndarray, H: np.ndarray) -> float:
+    """The dip's standard deviation: the fit's, which takes the accelerometer's gravity directions as exact, and
+    what the accelerometer's own B and H deviations make of it (their error is shared by every pose, so the
+    poses' scatter does not show it): the mean angle's derivatives in them by central differences, through B_cov
+    and H_cov."""
+    if accel.B_cov is None or accel.H_cov is None:
+        return fit_sd_deg
+    a = np.array([np.nanmean(session.raw["accel"][p.rows], axis=0) for p in poses])
+    f = (means - B) @ H.T
+    f /= np.linalg.norm(f, axis=1, keepdims=True)
+
+    def mean_angle(x: np.ndarray) -> float:
+        g = (a - x[:3]) @ x[3:].reshape(3, 3).T
+        return float(np.mean(np.arcsin(np.clip(np.sum(g * f, axis=1) / np.linalg.norm(g, axis=1), -1.0, 1.0))))
+
+    x0 = np.concatenate([accel.B, np.asarray(accel.H, float).ravel()])
+    steps = np.r_[np.full(3, 1e-6 * float(np.abs(a - accel.B).max())), np.full(9, 1e-6 * float(np.abs(accel.H).max()))]
+    grad = np.array([(mean_angle(x0 + h * e) - mean_angle(x0 - h * e)) / (2 * h) for h, e in zip(steps, np.eye(12))])
+    var = grad[:3] @ accel.B_cov @ grad[:3] + grad[3:] @ accel.H_cov @ grad[3:]
+    return float(np.hypot(fit_sd_deg, np.degrees(np.sqrt(max(var, 0.0)))))
 
 
 def near_rails(y: np.ndarray, found: list, poses: list[Pose]) -> np.ndarray:
