@@ -102,17 +102,16 @@ def calibrate_mag_alone(y: np.ndarray, field_uT: float | None, *, source: str,
     else:
         scaled = to_data_field(fit.S, 1.0, cov[3:, 3:])
         H, H_cov, norm = scaled.H, scaled.H_cov, scaled.field
-        in_units = "uT" if raw_unit == "uT" else raw_unit
         extra.update({"field_uT_source": "data", "field_magnitude": norm, "field_magnitude_std": scaled.field_std,
-                      "field_magnitude_unit": in_units})
+                      "field_magnitude_unit": raw_unit})
         if raw_unit != "uT":
             extra["unit"] = raw_unit
         warnings.append(field_from_data_warning(norm, scaled.field_std, raw_unit))
     cal = TriadCalibration(
         B=fit.B, H=H, method="magnetometer alone (ellipsoid, maximum likelihood; symmetric H: its own frame)",
         residual_rms=fit.residual_rms * norm, iterations=fit.iterations, converged=fit.converged,
-        B_std=np.sqrt(np.clip(np.diag(cov[:3, :3]), 0, None)), H_std=np.sqrt(np.clip(np.diag(H_cov), 0, None)).reshape(3, 3),
-        B_cov=cov[:3, :3], H_cov=H_cov, extra=extra)
+        B_std=np.sqrt(np.clip(np.diag(cov[:3, :3]), 0, None)),
+        H_std=np.sqrt(np.clip(np.diag(H_cov), 0, None)).reshape(3, 3), B_cov=cov[:3, :3], H_cov=H_cov, extra=extra)
     return cal, warnings
 
 
@@ -178,15 +177,23 @@ def fit_sphere(y: np.ndarray, *, what: str) -> SphereFit:
                                f"{100 * relative.max():.2g} % of the field (at most {100 * MAX_RELATIVE_SD:g} %); "
                                f"{_coverage_text(z, B, S)}: turn the sensor through more of the sphere")
     scale = np.r_[np.full(3, radius), np.full(6, 1.0 / radius)]
-    return SphereFit(B=centre + radius * B, S=S / radius, cov=cov * np.outer(scale, scale), sigma=float(np.sqrt(sigma2)) * radius,
-                     correlation_factor=factor, iterations=int(res.nfev), converged=bool(res.success), samples=n,
+    return SphereFit(B=centre + radius * B, S=S / radius, cov=cov * np.outer(scale, scale),
+                     sigma=float(np.sqrt(sigma2)) * radius, correlation_factor=factor, iterations=int(res.nfev),
+                     converged=bool(res.success), samples=n,
                      left_out=left_out, coverage=coverage(_directions(z, B, S)),
                      residual_rms=residual_rms)
 
 
 def _solve(z: np.ndarray, x0: np.ndarray):
-    res = minimise(lambda x: _residuals_and_jacobian(x, z)[0], lambda x: _residuals_and_jacobian(x, z)[1], x0,
-                    tol=1e-12, max_nfev=100)
+    """Levenberg-Marquardt from x0; the residuals and Jacobian of one x computed once for both calls."""
+    last: dict = {}
+
+    def both(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if "x" not in last or not np.array_equal(last["x"], x):
+            last["x"], last["value"] = x.copy(), _residuals_and_jacobian(x, z)
+        return last["value"]
+
+    res = minimise(lambda x: both(x)[0], lambda x: both(x)[1], x0, tol=1e-12, max_nfev=100)
     return res.x, res
 
 

@@ -109,7 +109,8 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
         B_std=np.sqrt(np.clip(np.diag(cov)[:3], 0, None)), H_std=np.sqrt(np.clip(np.diag(cov)[3:], 0, None)).reshape(3, 3),
         B_cov=cov[:3, :3], H_cov=cov[3:, 3:],
         extra={"poses": [p.name for p in poses], "samples": int(len(y)), "dip_deg": info["dip_deg"],
-               "dip_std_deg": _dip_std_deg(info["dip_std_deg"], session, accel, poses, means, B, H), "dip_rms_deg": float(np.degrees(info["dot_rms"])),
+               "dip_std_deg": _dip_std_deg(info["dip_std_deg"], session, accel, poses, means, B, H),
+               "dip_rms_deg": float(np.degrees(info["dot_rms"])),
                "pose_norm_error": pose_err.tolist(), **field}), warnings
 
 

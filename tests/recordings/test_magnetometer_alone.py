@@ -15,7 +15,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mag_synth import mag_truth, readings  # noqa: E402
-from test_unseen_recordings import rig  # noqa: E402
+from test_unseen_recordings import one_clear_line, rig  # noqa: E402
 from tumble_synth import level_turns, tumble  # noqa: E402
 
 from rig.calibration.mag_alone import calibrate_mag_alone  # noqa: E402
@@ -203,3 +203,21 @@ def test_a_gyro_beside_a_magnetometer_is_not_calibrated_and_says_why(tmp_path):
                for line in done.stdout.splitlines()), done.stdout
     doc = json.loads((tmp_path / "c" / "calibration.json").read_text())
     assert list(doc["sensors"]) == ["mag"] and "accelerometer" in doc["not_calibrated"]["gyro"]
+
+
+def test_rig_calibrate_refuses_a_log_turned_about_one_axis_with_exit_3_saying_its_coverage(tmp_path):
+    """A magnetometer turned round on a table and barely tilted, through `rig import csv` and `rig calibrate
+    --from`: the data cannot fix the ellipsoid (exit 3, a fault of the data), said in one line with how much of the
+    sphere they cover; no calibration.json."""
+    rng = np.random.default_rng(4)
+    t, R = level_turns(rng, tilt_deg=3.0)
+    truth = mag_truth(rng)
+    csv = write_mag_csv(tmp_path / "mag.csv", t, readings(R, truth, rng))
+    done = rig("import", "csv", str(csv), "--time", "t", "--mag", "mx,my,mz", "--units", "mag=uT", "--field-uT", "48",
+               "--out", str(tmp_path / "s"))
+    assert done.returncode == 0, done.stderr
+    done = rig("calibrate", "--from", str(tmp_path / "s"), "--out", str(tmp_path / "c"))
+    assert done.returncode == 3, (done.returncode, done.stdout, done.stderr)
+    line = one_clear_line(done)
+    assert "mag: " in line and "% of the sphere" in line and "turn the sensor" in line, line
+    assert not (tmp_path / "c" / "calibration.json").exists()
