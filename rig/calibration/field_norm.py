@@ -4,7 +4,7 @@ local one (no `field_uT`).
 The samples fix the ellipsoid, so the map `S` onto the unit sphere (`|S (y - B)| = 1`), but not how many uT that
 sphere's radius is: any `H = N S` fits them as well. The convention taken is `det(H) = 1` in the raw unit: the
 soft iron is taken to keep the volume of the sphere (a sensor whose three scales are off by +3, -1 and -2 %
-reads the field 0.03 % low), so `N = det(S)^(-1/3)`, the geometric mean of the ellipsoid's semi-axes. In a raw
+reads the field 0.02 % low), so `N = det(S)^(-1/3)`, the geometric mean of the ellipsoid's semi-axes. In a raw
 unit of field (uT, or gauss and mG as imported) N is the local field to within the soft iron's mean scale; in
 counts it is the sphere's radius in counts, and so is the calibrated output.
 

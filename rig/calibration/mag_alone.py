@@ -1,28 +1,31 @@
 """A magnetometer logged by itself and turned by hand: hard and soft iron from every sample, in its own frame.
 
 Model (Vasconcelos, Elkaim, Silvestre, Oliveira and Cardeira, "Geometric approach to strapdown magnetometer
-calibration in sensor frame", IEEE Trans. Aerospace and Electronic Systems 47(2), 2011, sec. II-III): a sample
-is `y_k = T h_k + b + n_k`, the field `h_k` of one magnitude in every attitude, `n_k` white noise of one
+calibration in sensor frame", IEEE Trans. Aerospace and Electronic Systems 47(2), 2011, its sensor model): a
+sample is `y_k = T h_k + b + n_k`, the field `h_k` of one magnitude in every attitude, `n_k` white noise of one
 deviation on every raw axis. Nothing but the magnitude is known, so the samples fix an ellipsoid and nothing
 turns it: T is determined up to a rotation, and the calibration `u = H (y - B)` takes the symmetric
-positive-definite H (`H = (T^T T)^(-1/2)` times the field), the magnetometer's own frame.
+positive-definite `H = F (T T^T)^(-1/2)` (F the field's magnitude), the magnetometer's own frame. The papers'
+texts could not be retrieved here: they are cited by what they do, not by equation number.
 
-1. Start: the algebraic ellipsoid through the samples (`ellipsoid.fit_ellipsoid`, one linear solve; the
-   quadric `y^T M y + 2 m^T y = 1`, as Li and Griffiths, "Least squares ellipsoid specific fitting", GMP 2004,
-   sec. 2, less their ellipticity constraint, which a tumbled sensor's samples satisfy unasked).
-2. Maximum likelihood (Vasconcelos et al. 2011, sec. IV): with Gaussian noise the likelihood is greatest where
-   the sum of squared distances from the samples to the ellipsoid `{B + S^-1 u : |u| = 1}` is least (their
-   cost over T, b and the unit fields h_k, the h_k eliminated as each sample's nearest point). The distance is
-   taken to first order in the noise: `r_k = (|S d_k| - 1) / |S e_k|`, `d_k = y_k - B`, `e_k = S d_k / |S d_k|`,
-   the algebraic residual over its gradient in y (the gradient-weighted distance of Sampson, CGIP 18, 1982, and
-   Taubin, IEEE PAMI 13, 1991, eq. 2.8). Minimised over B and the six entries of the symmetric S by
+1. Start: the algebraic ellipsoid through the samples (`ellipsoid.fit_ellipsoid`, one linear solve of the
+   quadric `y^T M y + 2 m^T y = 1`; Li and Griffiths, "Least squares ellipsoid specific fitting", Geometric
+   Modeling and Processing 2004, add a constraint that keeps the quadric an ellipsoid, which a tumbled sensor's
+   samples keep unasked).
+2. Maximum likelihood (Vasconcelos et al. 2011, their maximum likelihood estimator): with Gaussian noise the
+   likelihood is greatest where the sum of squared distances from the samples to the ellipsoid
+   `{B + S^-1 u : |u| = 1}` is least (their cost over T, b and the unit fields h_k, the h_k eliminated as each
+   sample's nearest point). The distance is taken to first order in the noise:
+   `r_k = (|S d_k| - 1) / |S e_k|`, `d_k = y_k - B`, `e_k = S d_k / |S d_k|`, the algebraic residual over its
+   gradient in y (the gradient-weighted distance of Sampson, Computer Graphics and Image Processing 18, 1982,
+   and Taubin, IEEE Trans. PAMI 13, 1991). Minimised over B and the six entries of the symmetric S by
    Levenberg-Marquardt (`levenberg.minimise`) with the analytic Jacobian below.
-3. Bias: the distances of noisy samples are not zero-mean at the truth (a noisy point lies outside its
-   sphere on average, the "essential bias" of geometric fits; Al-Sharadqah and Chernov, Electron. J. Statist.
-   3, 2009, sec. 4), which moves the estimate by O(sigma^2) where its deviation shrinks as sigma / sqrt(n):
-   with 0.3 uT in 48 uT and 6000 samples, half a deviation. The estimating equation's expectation at the truth
-   is `sigma^2 / 2 sum_k Laplacian_y (J_k^T r_k)` (second order in the noise), taken here by central
-   differences in y, and removed by one Gauss-Newton step.
+3. Bias: the distances of noisy samples are not zero-mean at the truth (a noisy point lies outside its sphere
+   on average, the "essential bias" of geometric fits; Al-Sharadqah and Chernov, Electronic Journal of
+   Statistics 3, 2009), which moves the estimate by O(sigma^2) where its deviation shrinks as sigma / sqrt(n):
+   about sigma sqrt(n) of its deviations (sigma relative to the field), 0.5 with 0.3 uT in 48 uT and 6000
+   samples. The estimating equation's expectation at the truth is `sigma^2 / 2 sum_k Laplacian_y (J_k^T r_k)`
+   (second order in the noise), taken here by central differences in y, and removed by one Gauss-Newton step.
 4. Covariance: `s^2 (J^T J)^-1`, J the residuals' Jacobian, s^2 the residuals' scatter over n - 9 degrees of
    freedom (Seber and Wild, Nonlinear Regression, 1989, sec. 2.1), widened where the residuals depend on each
    other over time (`_correlation_factor`): a slowly varying field, a smoothing filter or a model error shared
@@ -249,8 +252,8 @@ def _laplacian_score(x: np.ndarray, z: np.ndarray) -> np.ndarray:
 def _correlation_factor(J: np.ndarray, r: np.ndarray, A_inv: np.ndarray) -> float:
     """How much the residuals' dependence widens the covariance: the cluster-robust sandwich
     `A^-1 (sum_b s_b s_b^T) A^-1 G / (G - 1)`, s_b = J_b^T r_b summed over each of G blocks of consecutive
-    samples (Liang and Zeger, Biometrika 73, 1986, eq. 7, time blocks as the clusters), against the covariance of
-    independent samples, averaged over the parameters. A field disturbed for seconds, a smoothing filter, or a
+    samples (the robust variance of Liang and Zeger, Biometrika 73, 1986, with time blocks as the clusters),
+    against the covariance of independent samples, averaged over the parameters. A field disturbed for seconds, a smoothing filter, or a
     model error shared by the samples of one sweep make the samples of a block one piece of evidence: on the two
     real logs of a QMC5883L turned by hand for 7 minutes the ratio was 10 and 31. Taken only where it exceeds
     BLOCK_SIGNIFICANT: on white noise it measured 0.87 +/- 0.18 over 60 synthetic tumbles (at most 1.3)."""

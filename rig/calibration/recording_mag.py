@@ -46,9 +46,9 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
     six-face session's faces, put down with the box against one edge, leave the rotation about an axis open that
     its turns fix (7 deg off, stated as 1, before they were used). `norm` None: the recording does not say the
     local field magnitude, and the one its samples show is taken (`field_norm`; `raw_unit` the samples' unit).
-    The dip (the field's angle below the horizon, the same in every still pose: the dot-product invariant of
-    Kok and Schon, "Magnetometer calibration using inertial sensors", IEEE Sensors J. 16(14), 2016, sec. III)
-    comes with its standard deviation."""
+    The dip (the field's angle below the horizon, the same in every still pose: the dot-product invariant that
+    Kok and Schon, "Magnetometer calibration using inertial sensors", IEEE Sensors J. 16(14), 2016, use in their
+    joint model of the magnetometer and the inertial sensors) comes with its standard deviation."""
     y_all = session.raw["mag"]
     usable = ~np.isnan(y_all).any(axis=1)
     warnings = []
