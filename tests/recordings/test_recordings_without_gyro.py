@@ -119,3 +119,21 @@ def test_rig_calibrate_from_an_imported_accelerometer_log_and_one_with_a_magneto
     mag_cal = sensors["mag"]
     assert mag_cal["field_uT_source"] == "data" and "dip" in done.stdout
     assert abs(mag_cal["dip_deg"] - INCLINATION_DEG) < Z_MAX * mag_cal["dip_std_deg"]
+
+
+def test_a_nine_axis_recording_without_field_uT_is_calibrated_to_its_own_field():
+    """The accelerometer, gyro and magnetometer of one hand session, no field_uT: refused before; now the
+    magnetometer is scaled to det(H) = 1, within its deviations of the truth scaled alike, and says so."""
+    rec, truth, mag = hand_session(2)
+    session = recording_session(rec["t"], {"accel": rec["accel"], "gyro": rec["gyro"], "mag": mag},
+                                units={"accel": "m/s^2", "gyro": "rad/s", "mag": "uT"}, source="<9 axes>", gravity=G,
+                                sample_rate_hz=50.0)
+    cal = calibrate_recording(session)
+    assert sorted(cal.sensors) == ["accel", "gyro", "mag"]
+    m = cal.sensors["mag"]
+    H_truth = frame_of(cal.sensors["accel"].H, rec["Ha"]) @ truth.H
+    scale = np.linalg.det(H_truth) ** (-1.0 / 3.0)
+    zH = (m.H - H_truth * scale) / m.H_std
+    zN = (m.extra["field_magnitude"] - truth.field_uT * scale) / m.extra["field_magnitude_std"]
+    assert np.abs(zH).max() < Z_MAX and abs(zN) < Z_MAX, (zH.round(1), zN)
+    assert m.extra["field_uT_source"] == "data" and any("no field_uT" in w for w in cal.warnings)
