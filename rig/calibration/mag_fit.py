@@ -95,7 +95,10 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
     scale = np.r_[np.ones(3), np.full(9, norm)]
     cov = inv[:12, :12] * scale[:, None] * scale[None]
     rms = [float(np.sqrt(np.mean(r[kinds == k] ** 2))) for k in (0, 1)]
-    return B, H, cov, {"norm_rms": rms[0] * norm, "dip_deg": float(np.degrees(np.arcsin(np.clip(-x[12], -1, 1)))),
+    sine = float(np.clip(-x[12], -1, 1))
+    dip_sd = float(np.sqrt(max(inv[12, 12], 0.0)) / max(np.sqrt(1.0 - sine * sine), 1e-12))   # d asin(s) = ds / cos
+    return B, H, cov, {"norm_rms": rms[0] * norm, "dip_deg": float(np.degrees(np.arcsin(sine))),
+                       "dip_std_deg": float(np.degrees(dip_sd)),
                        "dot_rms": rms[1], "iterations": int(res.nfev), "converged": bool(res.success)}
 
 

@@ -4,6 +4,11 @@ angle about a sensor axis, and the motions between poses; where nothing is said,
 with static intervals found in the data (`turntable_free`). Each sensor's fit has its module (`recording_vector`,
 `recording_gyro`, `recording_mag`), their math `recording_fits` and `mag_fit`.
 
+Each sensor is calibrated by what the recording holds (docs/reference/recording-kinds.md): the accelerometer from
+its still poses, with or without a gyro beside it; the gyro from turns and motions between poses, which need the
+accelerometer's gravity; the magnetometer in the accelerometer's frame where one is there (`recording_mag`), else
+by itself in its own frame from every sample (`mag_alone`). Every sensor's `frame` says which.
+
 `leave_out` drops poses, turns or motions from the fit, by index in time order, so the same code scores what a
 calibration predicts for data it did not see (held-out prediction).
 """
@@ -16,6 +21,7 @@ import numpy as np
 
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.g_sensitivity import with_g_sensitivity
+from rig.calibration.mag_alone import calibrate_mag_alone
 from rig.calibration.recording_checks import (
     check_no_stuck_axis,
     imported_columns,
@@ -27,6 +33,7 @@ from rig.calibration.recording_gyro import fit_gyro, summed_rate, whole_carries
 from rig.calibration.recording_mag import calibrate_recording_mag
 from rig.calibration.recording_vector import vector_fit
 from rig.calibration.result import TriadCalibration
+from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.static_segments import check_static_segments
 from rig.calibration.turntable_free import checked, describe_rest, turntable_free_accel
@@ -76,18 +83,20 @@ def calibrate_recording(session: SessionData, *, leave_out: dict | None = None,
                                                               rec.sensors["accel"]).sensors["gyro"])
         if gyro is not None:
             rec.sensors["gyro"] = gyro
+    for cal in rec.sensors.values():
+        cal.extra.setdefault("frame", "accel")
     return rec
 
 
 def _calibrate_linear(session: SessionData, leave_out: dict | None, carry: CarryWeight | None,
                       gyro_start: np.ndarray | None, accel: TriadCalibration | None = None) -> RecordingCalibration:
     check_no_stuck_axis(session)
+    if "accel" not in session.raw:
+        return _without_accelerometer(session)
     poses, turns = segments_of(session)
     if not poses:
         return _turntable_free(session)
     check_static_segments(session, poses, turns)
-    if "accel" not in session.raw:
-        raise CalibrationError(f"{session.source}: a recording needs its accelerometer for the static poses")
     poses, saturated = unsaturated_poses(session, poses)
     if not poses:
         raise CalibrationError(f"{session.source}: no static pose is left once {'; '.join(w for _, w in saturated)}")
@@ -127,33 +136,54 @@ def _turn_axes(session: SessionData, sensors: dict, turns: list[Turn]) -> list[t
 
 def _mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list,
          left_out_rows: np.ndarray | None) -> tuple[TriadCalibration, list[str]]:
-    if not session.field_uT:
-        raise CalibrationError(f"{session.source}: a magnetometer is calibrated to the local field magnitude, and the "
-                               "session has none (field_uT)")
-    return calibrate_recording_mag(session, accel, poses, float(session.field_uT), turns, left_out_rows)
+    """In the accelerometer's frame, to the local field magnitude, or the data's own where the recording has none
+    (`field_norm`)."""
+    norm = float(session.field_uT) if session.field_uT else None
+    return calibrate_recording_mag(session, accel, poses, norm, turns, left_out_rows,
+                                   raw_unit=session.meta.get("units", {}).get("mag", "counts"))
+
+
+def _without_accelerometer(session: SessionData) -> RecordingCalibration:
+    """No accelerometer: a magnetometer by itself, every sample (still or not), in its own frame; a gyro beside it
+    is `refused` (its motions are tied to gravity)."""
+    if "mag" not in session.raw:
+        raise CalibrationError(f"{session.source}: a recording is calibrated from its accelerometer or its "
+                               f"magnetometer, and this one has neither ({', '.join(session.raw)})")
+    found, pinned = pinned_rows(np.nan_to_num(session.raw["mag"]))
+    y = session.raw["mag"][~pinned]
+    warnings = [f"mag: {rail_names('mag', found, imported_columns(session, 'mag'))}: those samples left out "
+                "(saturated: the field beyond the range)"] if found else []
+    mag, mag_warnings = calibrate_mag_alone(y, session.field_uT, source=str(session.source),
+                                            raw_unit=session.meta.get("units", {}).get("mag", "counts"))
+    refused = {"gyro": f"{session.source}: a gyroscope is calibrated by the gravity its motions carry between "
+                       "still poses, and the recording has no accelerometer"} if "gyro" in session.raw else {}
+    return RecordingCalibration({"mag": mag}, [], [], [], warnings + mag_warnings, refused)
 
 
 def _turntable_free(session: SessionData) -> RecordingCalibration:
     """No segments: imu_tk's method, static intervals detected in the data (the initial rest too, unless the
     recording says it: meta `initial_rest_s`). A gyro that cannot be calibrated from them (poses not held still,
-    motions too coarse or clipped) is `refused`; the accelerometer (and magnetometer) still are."""
-    if "accel" not in session.raw or "gyro" not in session.raw:
-        raise CalibrationError(f"{session.source}: a recording without segments needs an accelerometer and a "
-                               "gyroscope (imu_tk's turntable-free method)")
-    accel, gyro = session.raw["accel"], session.raw["gyro"]
-    rows = ~(np.isnan(accel).any(axis=1) | np.isnan(gyro).any(axis=1))
-    t, accel, gyro = session.t[rows], accel[rows], gyro[rows]
+    motions too coarse or clipped) is `refused`; the accelerometer (and magnetometer) still are. Without a gyro, the
+    accelerometer's poses are found all the same."""
+    accel = session.raw["accel"]
+    gyro = session.raw.get("gyro")
+    rows = ~np.isnan(accel).any(axis=1)
+    if gyro is not None:
+        rows &= ~np.isnan(gyro).any(axis=1)
+        gyro = gyro[rows]
+    t, accel = session.t[rows], accel[rows]
     rest = session.meta.get("initial_rest_s")           # None: found in the data
     columns = {s: imported_columns(session, s) for s in ("accel", "gyro")}
     sensors, refused = {}, {}
     try:                                                # name the recording, as every other refusal here does
         sensors["accel"] = turntable_free_accel(t, accel, gravity=session.gravity, init_static_s=rest,
                                                 columns=columns["accel"], pose_means=True, gyro_raw=gyro)
-        try:
-            sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
-                                                  columns=columns["gyro"])
-        except CalibrationError as exc:
-            refused["gyro"] = f"{session.source}: {exc}"
+        if gyro is not None:
+            try:
+                sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
+                                                      columns=columns["gyro"])
+            except CalibrationError as exc:
+                refused["gyro"] = f"{session.source}: {exc}"
     except (CalibrationError, ValueError) as exc:
         raise CalibrationError(f"{session.source}: {exc}") from None
     intervals = (sensors.get("gyro") or sensors["accel"]).extra["intervals"]

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.calibration.field_norm import data_field_norm, to_data_field
+from rig.calibration.mag_alone import field_from_data_warning
 from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
 from rig.calibration.recording_checks import imported_columns
 from rig.calibration.recording_vector import gravity_directions
@@ -35,13 +37,18 @@ RAIL_SIGMAS = 3.0
 RAIL_WINDOW = 9
 
 
-def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], norm: float,
+def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], norm: float | None,
                             turns: list[tuple[np.ndarray, np.ndarray, float]] = (),
-                            left_out_rows: np.ndarray | None = None) -> tuple[TriadCalibration, list[str]]:
+                            left_out_rows: np.ndarray | None = None,
+                            raw_unit: str = "counts") -> tuple[TriadCalibration, list[str]]:
     """The magnetometer's calibration in the accelerometer's frame, and warnings (poses left out). `turns`: (rows,
     axis in the accelerometer's frame, its standard deviation in rad) of turns about a fixed axis, along which the field stays the same: a
     six-face session's faces, put down with the box against one edge, leave the rotation about an axis open that
-    its turns fix (7 deg off, stated as 1, before they were used)."""
+    its turns fix (7 deg off, stated as 1, before they were used). `norm` None: the recording does not say the
+    local field magnitude, and the one its samples show is taken (`field_norm`; `raw_unit` the samples' unit).
+    The dip (the field's angle below the horizon, the same in every still pose: the dot-product invariant that
+    Kok and Schon, "Magnetometer calibration using inertial sensors", IEEE Sensors J. 16(14), 2016, use in their
+    joint model of the magnetometer and the inertial sensors) comes with its standard deviation."""
     y_all = session.raw["mag"]
     usable = ~np.isnan(y_all).any(axis=1)
     warnings = []
@@ -59,6 +66,9 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
         raise CalibrationError(f"{session.source}: mag: {len(poses)} still poses with magnetometer samples; its "
                                f"alignment with the accelerometer needs at least {MIN_POSES}")
     y = y_all[usable][::max(1, int(usable.sum()) // MAX_SAMPLES)]
+    from_data = norm is None
+    if from_data:
+        norm = data_field_norm(sphere_start(y, 1.0)[1])
     B, S = sphere_start(y, norm)
     kept, named = _undisturbed(session, poses, usable, B, S, norm)
     if named:
@@ -76,6 +86,15 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
     groups = [(means, g)] + [_turn_group(y_all, rows, axis) for rows, axis, _ in turns]
     Q, _ = best_rotation(S, B, groups, norm)
     B, H, cov, info = joint_fit(y, groups, norm, B, Q @ S, [sd for *_, sd in turns])
+    field = {"field_uT_source": "given"}
+    if from_data:
+        scaled = to_data_field(H, norm, cov[3:, 3:], cov[:3, 3:])
+        info["norm_rms"] *= scaled.field / norm                 # a share of the field, in its new magnitude
+        H, cov[3:, 3:], cov[:3, 3:], norm = scaled.H, scaled.H_cov, scaled.B_H_cov, scaled.field
+        cov[3:, :3] = cov[:3, 3:].T
+        field = {"field_uT_source": "data", "field_magnitude": norm, "field_magnitude_std": scaled.field_std,
+                 "field_magnitude_unit": raw_unit, **({"unit": raw_unit} if raw_unit != "uT" else {})}
+        warnings.append(field_from_data_warning(norm, scaled.field_std, raw_unit))
     if info["dip_deg"] < 0:
         warnings.append(f"mag: the field points {-info['dip_deg']:.0f} deg up from the horizon: right in the southern "
                         "magnetic hemisphere; in the northern one a magnetometer column has the opposite sign (a "
@@ -90,7 +109,32 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
         B_std=np.sqrt(np.clip(np.diag(cov)[:3], 0, None)), H_std=np.sqrt(np.clip(np.diag(cov)[3:], 0, None)).reshape(3, 3),
         B_cov=cov[:3, :3], H_cov=cov[3:, 3:],
         extra={"poses": [p.name for p in poses], "samples": int(len(y)), "dip_deg": info["dip_deg"],
-               "dip_rms_deg": float(np.degrees(info["dot_rms"])), "pose_norm_error": pose_err.tolist()}), warnings
+               "dip_std_deg": _dip_std_deg(info["dip_std_deg"], session, accel, poses, means, B, H),
+               "dip_rms_deg": float(np.degrees(info["dot_rms"])),
+               "pose_norm_error": pose_err.tolist(), **field}), warnings
+
+
+def _dip_std_deg(fit_sd_deg: float, session: SessionData, accel: TriadCalibration, poses: list[Pose],
+                 means: np.ndarray, B: np.ndarray, H: np.ndarray) -> float:
+    """The dip's standard deviation: the fit's, which takes the accelerometer's gravity directions as exact, and
+    what the accelerometer's own B and H deviations make of it (their error is shared by every pose, so the
+    poses' scatter does not show it): the mean angle's derivatives in them by central differences, through B_cov
+    and H_cov."""
+    if accel.B_cov is None or accel.H_cov is None:
+        return fit_sd_deg
+    a = np.array([np.nanmean(session.raw["accel"][p.rows], axis=0) for p in poses])
+    f = (means - B) @ H.T
+    f /= np.linalg.norm(f, axis=1, keepdims=True)
+
+    def mean_angle(x: np.ndarray) -> float:
+        g = (a - x[:3]) @ x[3:].reshape(3, 3).T
+        return float(np.mean(np.arcsin(np.clip(np.sum(g * f, axis=1) / np.linalg.norm(g, axis=1), -1.0, 1.0))))
+
+    x0 = np.concatenate([accel.B, np.asarray(accel.H, float).ravel()])
+    steps = np.r_[np.full(3, 1e-6 * float(np.abs(a - accel.B).max())), np.full(9, 1e-6 * float(np.abs(accel.H).max()))]
+    grad = np.array([(mean_angle(x0 + h * e) - mean_angle(x0 - h * e)) / (2 * h) for h, e in zip(steps, np.eye(12))])
+    var = grad[:3] @ accel.B_cov @ grad[:3] + grad[3:] @ accel.H_cov @ grad[3:]
+    return float(np.hypot(fit_sd_deg, np.degrees(np.sqrt(max(var, 0.0)))))
 
 
 def near_rails(y: np.ndarray, found: list, poses: list[Pose]) -> np.ndarray:

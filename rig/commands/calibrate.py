@@ -205,10 +205,14 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
 
         if fmt == "imu_tk" and not (accel and gyro):
             raise click.UsageError("--format imu_tk needs --accel FILE and --gyro FILE")
-        from rig.commands.sessions import is_rig_session
+        from rig.commands.sessions import is_rig_session, session_kind
         from rig.errors import RigError
+        from rig.recording_kinds import refuse_unless_taken
 
         try:
+            kind = session_kind(Path(from_dir)) if fmt == "interchange" else None
+            if kind is not None:
+                refuse_unless_taken("calibrate", *kind, from_dir)
             if fmt == "interchange" and is_rig_session(from_dir):
                 if click.get_current_context().get_parameter_source("settle_s").name == "DEFAULT":
                     settle_s = 0.0                  # the rig records a hold once the table has settled

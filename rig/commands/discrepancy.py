@@ -39,12 +39,16 @@ SENSORS = ("accel", "gyro", "mag")
 def discrepancy(session_dir, json_out, report_dir, no_replay, replicas, heldout):
     """Fit the linear model, test every candidate effect, report the ones the data support."""
     from procedures.replay import replay_comparison
-    from rig.commands.sessions import read_any_session
+    from rig.commands.sessions import read_any_session, session_kind
     from rig.discrepancy import analyze
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
+    from rig.recording_kinds import refuse_unless_taken
 
     try:
+        kind = session_kind(session_dir)
+        if kind is not None:
+            refuse_unless_taken("discrepancy", *kind, session_dir)
         session = read_any_session(session_dir)
     except RigError as exc:
         raise command_error(exc) from None

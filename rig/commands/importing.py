@@ -53,6 +53,24 @@ def _write(session, out: Path, force: bool) -> None:
             click.echo(f"  {seg['name']}: {seg['angle_deg']:+g} deg about {seg['axis']} "
                        f"(+/- {seg.get('angle_deg_sd', 0):g} deg, sense "
                        f"{session.meta['imported'].get('turn_sense', 'given')})")
+    click.echo(recording_uses(list(session.raw)))
+
+
+def recording_uses(sensors: list[str]) -> str:
+    """Which commands take a recording of these sensors, and what the others lack (`rig.recording_kinds`)."""
+    from rig.recording_kinds import COMMANDS, kind_name, use
+
+    taken, not_taken = [], []
+    for command in COMMANDS:
+        u = use(command, False, sensors)
+        if u.taken:
+            taken.append(f"rig {command}" + (" --from" if command == "calibrate" else "")
+                         + (f" ({u.note})" if u.note else ""))
+        elif u.lacks_sensor:
+            not_taken.append(f"rig {command} ({u.note})")
+    line = (f"a recording of kind {kind_name(False, sensors)}: {', '.join(taken)} take"
+            f"{'s' if len(taken) == 1 else ''} it")
+    return line + (f"; not {', '.join(not_taken)}" if not_taken else "")
 
 
 def _run(build, out: Path, force: bool) -> None:
@@ -83,7 +101,9 @@ def import_group() -> None:
 @click.option("--accel", required=True, type=click.Path(dir_okay=False), help="imu_tk accelerometer file.")
 @click.option("--gyro", required=True, type=click.Path(dir_okay=False), help="imu_tk gyroscope file.")
 @click.option("--mag", type=click.Path(dir_okay=False), help="imu_tk magnetometer file.")
-@click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True), help="Local field magnitude, uT (with --mag).")
+@click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True),
+              help="Local field magnitude, uT (with --mag); without it the magnetometer is calibrated to the "
+                   "magnitude its own samples show.")
 @_initial_rest_option
 @_gravity_option
 @_out_option
@@ -137,7 +157,9 @@ def import_ferraris(csv_file, sections, annotated, rate_hz, units, turn_deg, til
 @click.option("--header-line", type=click.IntRange(0), default=1, show_default=True,
               help="Line of the column names, for a logger that prints its settings above them; 0 for a file "
                    "without them, whose columns are then named by number from 1.")
-@click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True), help="Local field magnitude, uT (with --mag).")
+@click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True),
+              help="Local field magnitude, uT (with --mag); without it the magnetometer is calibrated to the "
+                   "magnitude its own samples show.")
 @_initial_rest_option
 @_gravity_option
 @_out_option

@@ -31,6 +31,20 @@ def read_any_session(folder: Path) -> SessionData:
                      "session, meta.json + samples.csv)")
 
 
+def session_kind(folder: Path) -> tuple[bool, list[str]] | None:
+    """(has a turntable, its sensors) of an interchange session in `folder`, from meta.json alone: a command
+    refuses a kind it cannot use before its samples are read (`rig.recording_kinds`). None for the rig's own
+    folder (a turntable session, which every command takes) and for a folder without meta.json (the reader then
+    says what it is not)."""
+    folder = Path(folder)
+    if is_rig_session(folder) or not (folder / "meta.json").is_file():
+        return None
+    from rig.io.session_meta import read_meta
+
+    meta = read_meta(folder / "meta.json")
+    return meta.get("reference", "table") != "none", list(meta["sensors"])
+
+
 def session_from_store(store) -> SessionData:
     """The store's session with what the interchange layout carries beside the arrays (its configuration facts)."""
     return with_configuration_facts(store.to_session_data())

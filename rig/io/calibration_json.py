@@ -56,6 +56,7 @@ def write_calibration(path: str | os.PathLike, sensors: dict[str, TriadCalibrati
         unit = SENSOR_UNITS.get(name)
         if unit is None:
             raise ValueError(f"write_calibration: unknown sensor {name!r}; expected one of {sorted(SENSOR_UNITS)}")
+        unit = cal.extra.get("unit", unit)      # a magnetometer in counts calibrated to its own field: counts
         det = float(np.linalg.det(np.asarray(cal.H, dtype=float)))
         if not det > 0:
             raise ValueError(f"write_calibration: sensor {name!r} has det(H) = {det:.3g}; the file requires det(H) > 0")

@@ -34,8 +34,6 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
         raise InputError(f"--time-unit {time_unit!r}: one of {', '.join(TIME_UNITS)}")
     if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
         raise InputError(f"--rate-hz {rate_hz!r}: must be a positive number")
-    if "mag" in sensors and field_uT is None:
-        raise InputError("a magnetometer needs the local field magnitude: give --field-uT")
     if header_line < 0:
         raise InputError(f"--header-line {header_line}: lines count from 1 (0: the file has no header)")
     header = read_header(path, delimiter, header_line) if header_line else numbered_columns(path, delimiter)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.errors import InputError, SessionFormatError
+from rig.errors import SessionFormatError
 from rig.io.imu_tk import read_imu_tk_lines
 from rig.io.recording import STANDARD_GRAVITY, check_counts, recording_session
 from rig.session_data import SessionData
@@ -22,8 +22,6 @@ STAMP_TOLERANCE_S = 1e-6
 def import_imu_tk(files: dict[str, str | os.PathLike], *, gravity: float = STANDARD_GRAVITY,
                   field_uT: float | None = None, initial_rest_s: float | None = None) -> SessionData:
     """`files`: sensor ('accel', 'gyro', 'mag') -> its imu_tk file, read as raw counts."""
-    if "mag" in files and field_uT is None:
-        raise InputError("a magnetometer file needs the local field magnitude: give --field-uT")
     t, raw, where = None, {}, {}
     first = None
     for sensor, path in files.items():

@@ -50,11 +50,9 @@ def read_meta(path: Path) -> dict:
         if clash:
             fail(f"sensors.{name}", f"column {sorted(clash)[0]!r} is already used by another column or sensor")
         claimed |= set(names)
-    if "mag" in sensors:
-        if meta.get("field_uT") is None:
-            fail("field_uT", "required when a magnetometer is present (local field magnitude, uT)", "mag")
-        _check_positive(meta["field_uT"], "field_uT", fail)
-    elif meta.get("field_uT") is not None:
+    if "mag" in sensors and meta.get("field_uT") is None and meta.get("reference", "table") != "none":
+        fail("field_uT", "required when a magnetometer is on a table (local field magnitude, uT)", "mag")
+    if meta.get("field_uT") is not None:
         _check_positive(meta["field_uT"], "field_uT", fail)
     if meta.get("sample_rate_hz") is not None:
         _check_positive(meta["sample_rate_hz"], "sample_rate_hz", fail)

@@ -102,8 +102,8 @@ def _meta_for(session: SessionData, extra_meta: dict | None) -> dict:
         meta["field_uT"] = float(session.field_uT)
     if session.sample_rate_hz is not None:
         meta["sample_rate_hz"] = float(session.sample_rate_hz)
-    if "mag" in session.raw and meta.get("field_uT") is None:
-        raise ValueError("a session with a magnetometer needs field_uT (session-csv.md)")
+    if "mag" in session.raw and meta.get("field_uT") is None and meta.get("reference", "table") != "none":
+        raise ValueError("a session with a magnetometer on a table needs field_uT (session-csv.md)")
     return meta
 
 

@@ -28,7 +28,7 @@ def summary_lines(result: SessionCalibration) -> list[str]:
     """Per sensor: method, holds, residual, iterations, B and H with their standard deviations."""
     lines = []
     for name, cal in result.sensors.items():
-        unit = SENSOR_UNITS.get(name, "?")
+        unit = cal.extra.get("unit", SENSOR_UNITS.get(name, "?"))
         holds = result.holds_used.get(name)
         raw = result.raw_units.get(name, "counts")
         head = f"{name}: {cal.method}" + (f", {holds} holds" if holds is not None else "")
@@ -55,6 +55,9 @@ def summary_lines(result: SessionCalibration) -> list[str]:
             verdict += f", p = {cal.extra.get('lever_arm_p_value', float('nan')):.2g}"
             lines.append(f"  lever arm r = {vec(cal.extra['lever_arm_m'])} m +/- {vec(cal.extra['lever_arm_std_m'])}"
                          f" ({verdict}, {cal.extra.get('lever_arm_rows')} move rows)")
+        if "dip_std_deg" in cal.extra:
+            lines.append(f"  dip {cal.extra['dip_deg']:.3f} +/- {cal.extra['dip_std_deg']:.2g} deg (the field's angle "
+                         f"below the horizon, from {len(cal.extra.get('poses', []))} still poses)")
         if cal.g_sensitivity is not None:
             g = cal.g_sensitivity
             lines.append(f"  g-sensitivity {g.deg_s_per_g:.3g} deg/s per g (p = {g.p_value:.2g}, {g.poses} poses): "

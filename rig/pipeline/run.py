@@ -118,7 +118,8 @@ def calibrate_without_table(session: SessionData) -> SessionCalibration:
     warnings = list(rec.warnings)
     for name, cal in rec.sensors.items():
         check_result(name, cal, reference_norm(session, name), warnings)
-    result = SessionCalibration(dict(rec.sensors), warnings, holds_used={s: len(rec.poses) for s in rec.sensors},
+    result = SessionCalibration(dict(rec.sensors), warnings,
+                                holds_used={s: len(rec.poses) for s in rec.sensors if rec.poses},
                                 raw_units=dict(session.meta.get("units", {})), refused=dict(rec.refused))
     result.summary = summary_lines(result)
     return result
