@@ -114,6 +114,8 @@ def import_imu_tk(accel, gyro, mag, field_uT, units, initial_rest_s, gravity, ou
     """imu_tk ASCII files (timestamp x y z; raw counts, or the units --units names), sampled together."""
     from rig.io.import_imu_tk import import_imu_tk as build
 
+    if mag and field_uT is None:
+        raise click.UsageError("--mag needs --field-uT: the local field magnitude, uT")
     files = {"accel": accel, "gyro": gyro, **({"mag": mag} if mag else {})}
     _run(lambda: build(files, units=sensor_units(units, list(files)), gravity=gravity, field_uT=field_uT,
                        initial_rest_s=initial_rest_s), out, force)

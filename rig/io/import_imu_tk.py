@@ -27,7 +27,7 @@ def import_imu_tk(files: dict[str, str | os.PathLike], *, units: dict[str, str] 
     """`files`: sensor ('accel', 'gyro', 'mag') -> its imu_tk file; `units`: sensor -> the unit its file is in
     (`rig.io.recording.IMPORT_UNITS`), raw counts where not named."""
     if "mag" in files and field_uT is None:
-        raise InputError("a magnetometer file needs the local field magnitude: give --field-uT")
+        raise InputError(f"{files['mag']}: a magnetometer file needs the local field magnitude (field_uT, uT)")
     t, raw, where = None, {}, {}
     first = None
     for sensor, path in files.items():
