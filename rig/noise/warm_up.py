@@ -23,6 +23,7 @@ from scipy.optimize import minimize_scalar, nnls
 
 EXPONENTIAL, RAMP = "exponential", "ramp"
 MAX_BLOCKS = 2000           # the stream is averaged to at most this many blocks for the fit
+FINEST_BLOCK_S = 0.05       # the blocks of the first search, over the first MAX_BLOCKS of them
 MIN_BLOCKS = 40
 LONGEST_FRACTION = 1 / 8    # tau at most this part of the record: five taus of settled record after three
 SEARCHED_FRACTION = 1 / 2   # taus searched: a trend whose best tau is longer than the longest named has not settled
@@ -102,32 +103,62 @@ def _deviations(tb: np.ndarray, xb: np.ndarray, shape: str, level: float, a: flo
 
 def _noise_model(noise: np.ndarray) -> tuple[float, float]:
     """Per block: the standard deviation of a white noise and of the steps of a random walk whose sum has the
-    Allan variance of `noise` over octave clusters of blocks (non-negative least squares; the discrete walk's Allan
-    variance over m blocks is q^2 (2 m^2 + 1) / (6 m))."""
+    Allan variance of `noise` over octave clusters of blocks (the discrete walk's over m blocks is
+    q^2 (2 m^2 + 1) / (6 m)). Non-negative least squares, each point weighted by the model's Allan variance over
+    the square root of its clusters (its relative error), the model's once there is one: weights from the
+    measured values make a point that came out low, as one of few clusters may, pull the whole model down."""
     sizes = [m for m in 2 ** np.arange(12) if len(noise) // m >= 4]
-    avar = []
+    avar, count = [], []
     for m in sizes:
         means = noise[: len(noise) // m * m].reshape(-1, m).mean(axis=1)
         avar.append(0.5 * np.mean(np.diff(means) ** 2))
-    m = np.array(sizes, dtype=float)
+        count.append(len(means) - 1)
+    m, avar = np.array(sizes, dtype=float), np.array(avar)
     A = np.column_stack([1 / m, (2 * m ** 2 + 1) / (6 * m)])
-    w = 1 / np.maximum(np.array(avar), 1e-300)
-    (white2, walk2), _ = nnls(A * w[:, None], np.array(avar) * w)
+    model = avar
+    for _ in range(3):
+        w = np.sqrt(np.array(count, dtype=float)) / np.maximum(model, 1e-300)
+        (white2, walk2), _ = nnls(A * w[:, None], avar * w)
+        if not white2 + walk2 > 0:
+            break
+        model = A @ np.array([white2, walk2])
     return math.sqrt(white2), math.sqrt(walk2)
 
 
 def _window_means(t: np.ndarray, x: np.ndarray, start: float, width: float) -> np.ndarray:
-    edges = np.arange(start, t[-1] + 1e-12, width)
-    index = np.searchsorted(t, edges)
-    return np.array([x[i:j].mean() for i, j in zip(index[:-1], index[1:]) if j > i])
+    """The means of x over consecutive windows of `width` seconds from `start` (those holding a sample)."""
+    index = np.searchsorted(t, np.arange(start, t[-1] + 1e-12, width))
+    index = np.unique(index[index < len(x)])
+    if len(index) < 2:
+        return np.zeros(0)
+    sums = np.add.reduceat(x[index[0]:], index - index[0])
+    counts = np.diff(np.r_[index, len(x)])
+    return (sums / counts)[:-1]                                    # the last window runs past the final edge
 
 
 def find_warm_up(t: np.ndarray, x: np.ndarray) -> WarmUp | None:
     """The warm-up at the start of a still stream x (n,) at times t (s, from the stretch's start), or None (module
-    docstring)."""
+    docstring). The start is searched first in fine blocks (`FINEST_BLOCK_S`) over as much of it as `MAX_BLOCKS`
+    of them cover, then in blocks four times as long over four times as much, up to the whole stream: a warm-up of
+    seconds at the start of hours is resolved, and one of an hour still seen."""
     t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
     keep = np.isfinite(x)
     t, x = t[keep], x[keep]
+    if len(x) < MIN_BLOCKS or np.ptp(x) == 0:
+        return None
+    block = FINEST_BLOCK_S
+    while MAX_BLOCKS * block < t[-1] - t[0]:
+        rows = t - t[0] <= MAX_BLOCKS * block
+        found = _found_in(t[rows], x[rows], t, x)
+        if found is not None:
+            return found
+        block *= 4
+    return _found_in(t, x, t, x)
+
+
+def _found_in(t: np.ndarray, x: np.ndarray, t_all: np.ndarray, x_all: np.ndarray) -> WarmUp | None:
+    """The warm-up fitted to the start (t, x) of the stream (t_all, x_all) in at most `MAX_BLOCKS` blocks, and
+    judged against the whole stream's settled part (module docstring)."""
     if len(x) < MIN_BLOCKS or np.ptp(x) == 0:
         return None
     tb, xb = _blocks(t, x)
@@ -141,7 +172,7 @@ def find_warm_up(t: np.ndarray, x: np.ndarray) -> WarmUp | None:
         return None
     _, (level, a) = _linear(tb, xb, shape, tau)
     ends = SETTLED_AFTER * tau if shape == EXPONENTIAL else tau
-    settled = _window_means(t, x, ends, tau)
+    settled = _window_means(t_all, x_all, ends, tau)
     if len(settled) < 5:
         return None
     start = float(x[t < tau].mean())
@@ -155,4 +186,4 @@ def find_warm_up(t: np.ndarray, x: np.ndarray) -> WarmUp | None:
     else:
         begin = tau
     a_std, tau_std = _deviations(tb, xb, shape, level, a, tau, lo, hi, ends)
-    return WarmUp(shape, float(a), a_std, float(tau), tau_std, float(min(begin, record)), float(stand_off))
+    return WarmUp(shape, float(a), a_std, float(tau), tau_std, float(min(begin, t_all[-1])), float(stand_off))
