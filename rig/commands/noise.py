@@ -115,7 +115,7 @@ def axis_line(fit: dict, unit: str) -> str:
             absent.append((term_name, f"{term['bound']:.2g} {full_unit}"))
     parts = list(fitted)
     if unknown:
-        parts.append(f"{' and '.join(n for n, _ in unknown)} not determinable from {fit['record_s']:.0f} s (below "
+        parts.append(f"{' and '.join(n for n, _ in unknown)} not determinable from {fit['record_s']:.4g} s (below "
                      f"{', '.join(b for _, b in unknown)})")
     for term_name, bound in absent:
         parts.append(f"no {term_name} (below {bound})")

@@ -50,6 +50,9 @@ def stretch(session: SessionData, rate: float, start_s: float | None, end_s: flo
         raise InputError(f"--end {end:g} s: it must be after the start ({start:g} s) and within the recording's "
                          f"{length:g} s")
     first, last = int(np.searchsorted(since, start)), int(np.searchsorted(since, end, side="right"))
+    if last - first < MIN_SAMPLES:
+        raise InputError(f"--start/--end: {last - first} samples from {start:g} to {end:g} s; an Allan deviation "
+                         f"needs at least {MIN_SAMPLES}")
     how = "the whole recording" if start_s is None and end_s is None else "the part given by --start/--end"
     streams = {name: y[first:last] for name, y in session.raw.items()}
     if window == "still":

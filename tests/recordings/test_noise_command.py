@@ -148,7 +148,8 @@ def test_a_log_that_was_bumped_is_refused_with_where_and_its_still_parts_are_ana
 
 @pytest.mark.parametrize("args,words", [(["--start", "700"], "--start 700 s: the recording runs from 0 to"),
                                         (["--start", "30", "--end", "20"], "--end 20 s: it must be after the start"),
-                                        (["--end", "900"], "within the recording's")])
+                                        (["--end", "900"], "within the recording's"),
+                                        (["--start", "10.001", "--end", "10.002"], "0 samples from 10.001 to 10.002 s")])
 def test_a_part_outside_the_recording_is_refused_naming_the_option(tmp_path, args, words):
     folder = write_session(counts_log(60, 6), tmp_path / "log")
     done = subprocess.run([*RIG, "noise", str(folder), *args], capture_output=True, text=True, timeout=60)
