@@ -132,6 +132,8 @@ def analyse_still(session: SessionData, *, start_s: float | None = None, end_s: 
             found = trends[axis]
             trend = found.trend(t[rows]) if found is not None else np.zeros(int(rows.sum()))
             axes[axis] = _axis(session, sensor, axis, part[rows, k], rate, trend)
-            axes[axis]["start_trend"] = trends[axis].to_dict() if trends[axis] is not None else None
+            # a at t0_s, the stretch's start; settled_s, like every time of the report, from the recording's
+            axes[axis]["start_trend"] = None if found is None else {
+                **found.to_dict(), "t0_s": float(since[first]), "settled_s": float(since[first] + found.settled_s)}
         out["sensors"][sensor] = axes
     return out
