@@ -75,6 +75,7 @@ EFFECTS: dict[str, EffectSpec] = {e.name: e for e in (
     _noise("quantisation", TRIADS, "{unit}", "coarse counts that the noise does not dither"),
     _noise("hold_not_still", ("accel", "gyro"), "deg/s", "a static pose that moves (hand tremor, a soft mount)"),
     _noise("saturation", TRIADS, "percent", "the output clips at its range"),
+    _noise("warm_up", TRIADS, "{unit}", "the bias settling as the unit comes to temperature after power-on"),
 )}
 
 

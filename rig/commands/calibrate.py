@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from rig import exits
+from rig.commands.importing import initial_rest_option, sensor_units, units_option
 from rig.config import RigConfig, load_config
 from rig.exits import (
     CommandError,
@@ -163,6 +164,8 @@ def show_outcome(outcome, echo=click.echo) -> int:
               show_default=True)
 @click.option("--accel", type=click.Path(exists=True, dir_okay=False), help="imu_tk accelerometer file.")
 @click.option("--gyro", type=click.Path(exists=True, dir_okay=False), help="imu_tk gyroscope file.")
+@units_option
+@initial_rest_option
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output folder.")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True,
               help="Simulated unit and noise (with --sim).")
@@ -193,10 +196,13 @@ def show_outcome(outcome, echo=click.echo) -> int:
               help="Run the plan of `rig plan --target-h-pct`: the shortest predicted to reach this H error.")
 @click.option("--noise-from", type=click.Path(exists=True, file_okay=False), default=None,
               help="With --budget-s/--target-h-pct: the noise of a calibrated session of this unit.")
-def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scale, method, orientations,
-              gravity, settle_s, gyro_samples, holds_only, store, no_progress, plots, budget_s, target_h_pct,
-              noise_from):
+def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_s, out, seed, time_scale, method,
+              orientations, gravity, settle_s, gyro_samples, holds_only, store, no_progress, plots, budget_s,
+              target_h_pct, noise_from):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
+    if fmt != "imu_tk" and (units is not None or initial_rest_s is not None):
+        raise click.UsageError("--units and --initial-rest-s say how imu_tk's files are read (--format imu_tk); a "
+                               "session carries its own")
     if from_dir or fmt == "imu_tk":
         if budget_s is not None or target_h_pct is not None or noise_from is not None:
             raise click.UsageError("--budget-s, --target-h-pct and --noise-from plan a session to run; a recorded "
@@ -221,7 +227,9 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, out, seed, time_scal
                 return
             result = calibrate_from_dir(from_dir, out, fmt=fmt, accel_file=accel, gyro_file=gyro, method=method,
                                         settle_s=settle_s, gravity=gravity, gyro_samples=gyro_samples,
-                                        echo=click.echo, move_samples=not holds_only)
+                                        echo=click.echo, move_samples=not holds_only,
+                                        units=sensor_units(units, ["accel", "gyro"]) if fmt == "imu_tk" else None,
+                                        initial_rest_s=initial_rest_s)
         except (RigError, OSError) as e:
             raise command_error(e) from None
         except (ValueError, ArithmeticError) as e:     # numbers the data cannot support (numpy's LinAlgError too)

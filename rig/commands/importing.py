@@ -10,9 +10,14 @@ from pathlib import Path
 
 import click
 
+from rig.errors import InputError
 from rig.exits import CommandError, Exit, FiniteFloat, command_error
+from rig.io.recording import IMPORT_UNITS, parse_units
 
 WRITTEN = ("meta.json", "samples.csv")
+UNITS_HELP = ("Units the sensors' columns are in, e.g. accel=m/s^2,gyro=rad/s: "
+              + "; ".join(f"{sensor} in {', '.join(units)}" for sensor, units in IMPORT_UNITS.items())
+              + " (default: counts).")
 
 
 def _out_option(f):
@@ -21,10 +26,29 @@ def _out_option(f):
                         help="Session folder to write (meta.json + samples.csv).")(f)
 
 
-def _initial_rest_option(f):
+def units_option(f):
+    """`--units`: the one definition every importer takes (`rig import imu_tk|ferraris|csv`, `rig calibrate --format
+    imu_tk`), read by `sensor_units`."""
+    return click.option("--units", default=None, metavar="SENSOR=UNIT,...", help=UNITS_HELP)(f)
+
+
+def sensor_units(text: str | None, sensors: list[str]) -> dict[str, str]:
+    """`--units` as {sensor: unit} for the sensors an import reads (counts where not named); a sensor named that the
+    import does not read is refused, as a unit that sensor cannot be in is (InputError, naming --units)."""
+    units = parse_units(text, sensors)
+    unread = [sensor for sensor in units if sensor not in sensors]
+    if unread:
+        raise InputError(f"--units names {' and '.join(unread)}, which this import does not read (it reads "
+                         f"{', '.join(sensors)})")
+    return units
+
+
+def initial_rest_option(f):
     return click.option("--initial-rest-s", type=FiniteFloat(0, low_open=True), default=None,
                         help="Seconds of rest the recording starts with (imu_tk's initial static interval: the "
-                        "static threshold and the gyro bias); default 50.")(f)
+                        "static threshold and the gyro bias); by default found in the data: the still stretch the record "
+                        "starts with, or, where it starts moving, the threshold from its quietest stretches and the "
+                        "gyro bias from its poses.")(f)
 
 
 def _gravity_option(f):
@@ -104,15 +128,17 @@ def import_group() -> None:
 @click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True),
               help="Local field magnitude, uT (with --mag); without it the magnetometer is calibrated to the "
                    "magnitude its own samples show.")
-@_initial_rest_option
+@units_option
+@initial_rest_option
 @_gravity_option
 @_out_option
-def import_imu_tk(accel, gyro, mag, field_uT, initial_rest_s, gravity, out, force):
-    """imu_tk ASCII files (timestamp x y z, raw counts), sampled together."""
+def import_imu_tk(accel, gyro, mag, field_uT, units, initial_rest_s, gravity, out, force):
+    """imu_tk ASCII files (timestamp x y z; raw counts, or the units --units names), sampled together."""
     from rig.io.import_imu_tk import import_imu_tk as build
 
     files = {"accel": accel, "gyro": gyro, **({"mag": mag} if mag else {})}
-    _run(lambda: build(files, gravity=gravity, field_uT=field_uT, initial_rest_s=initial_rest_s), out, force)
+    _run(lambda: build(files, units=sensor_units(units, list(files)), gravity=gravity, field_uT=field_uT,
+                       initial_rest_s=initial_rest_s), out, force)
 
 
 @import_group.command("ferraris")
@@ -120,7 +146,7 @@ def import_imu_tk(accel, gyro, mag, field_uT, initial_rest_s, gravity, out, forc
 @click.option("--sections", type=click.Path(dir_okay=False), help="imucal section list (JSON) of --csv.")
 @click.option("--annotated", type=click.Path(dir_okay=False), help="imucal pre-cut session CSV (part, samples, ...).")
 @click.option("--rate-hz", required=True, type=FiniteFloat(0, low_open=True), help="Sample rate of the recording.")
-@click.option("--units", default=None, help="Units of the columns, e.g. accel=m/s^2,gyro=deg/s (default: counts).")
+@units_option
 @click.option("--turn-deg", type=FiniteFloat(), default=None,
               help="Signed angle of every turn (right-hand rule about its axis); default: the sense from the data.")
 @click.option("--tilt-sd-deg", type=FiniteFloat(0, low_open=True), default=2.0, show_default=True,
@@ -133,10 +159,9 @@ def import_ferraris(csv_file, sections, annotated, rate_hz, units, turn_deg, til
                     force):
     """imucal's Ferraris session: six faces and a turn about each axis."""
     from rig.io.import_ferraris import import_ferraris as build
-    from rig.io.recording import parse_units
 
     def session():
-        return build(rate_hz=rate_hz, units=parse_units(units, ["accel", "gyro"]), csv=csv_file, sections=sections,
+        return build(rate_hz=rate_hz, units=sensor_units(units, ["accel", "gyro"]), csv=csv_file, sections=sections,
                      annotated=annotated, turn_deg=turn_deg, tilt_sd_deg=tilt_sd_deg, turn_sd_deg=turn_sd_deg,
                      gravity=gravity)
     _run(session, out, force)
@@ -151,8 +176,7 @@ def import_ferraris(csv_file, sections, annotated, rate_hz, units, turn_deg, til
 @click.option("--gyro", help="Gyroscope columns x,y,z.")
 @click.option("--mag", help="Magnetometer columns x,y,z.")
 @click.option("--temp", "temp_column", help="Temperature column, degC.")
-@click.option("--units", default=None,
-              help="Units, e.g. accel=m/s^2,gyro=deg/s,mag=uT (also g, rad/s, gauss, mG; default: counts).")
+@units_option
 @click.option("--delimiter", default=",", show_default=True)
 @click.option("--header-line", type=click.IntRange(0), default=1, show_default=True,
               help="Line of the column names, for a logger that prints its settings above them; 0 for a file "
@@ -160,14 +184,13 @@ def import_ferraris(csv_file, sections, annotated, rate_hz, units, turn_deg, til
 @click.option("--field-uT", "field_uT", type=FiniteFloat(0, low_open=True),
               help="Local field magnitude, uT (with --mag); without it the magnetometer is calibrated to the "
                    "magnitude its own samples show.")
-@_initial_rest_option
+@initial_rest_option
 @_gravity_option
 @_out_option
 def import_csv(file, time_column, time_unit, rate_hz, accel, gyro, mag, temp_column, units, delimiter, header_line,
                field_uT, initial_rest_s, gravity, out, force):
     """Any logger's CSV, given which columns hold what."""
     from rig.io.import_csv import import_csv as build
-    from rig.io.recording import parse_units
 
     sensors = {name: cols for name, cols in (("accel", _columns("--accel", accel)), ("gyro", _columns("--gyro", gyro)),
                                              ("mag", _columns("--mag", mag))) if cols}
@@ -175,7 +198,7 @@ def import_csv(file, time_column, time_unit, rate_hz, accel, gyro, mag, temp_col
         raise click.UsageError("name the columns of at least one sensor: --accel, --gyro or --mag")
 
     def session():
-        return build(file, sensors, units=parse_units(units, list(sensors)), time_column=time_column,
+        return build(file, sensors, units=sensor_units(units, list(sensors)), time_column=time_column,
                      time_unit=time_unit, rate_hz=rate_hz, temp_column=temp_column, delimiter=delimiter,
                      gravity=gravity, field_uT=field_uT, header_line=header_line,
                      initial_rest_s=initial_rest_s)

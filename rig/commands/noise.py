@@ -1,9 +1,12 @@
-"""`rig noise DIR`: the Allan deviation of a static recording and the noise terms it shows, per sensor and axis.
+"""`rig noise DIR`: the Allan deviation of a still recording and the noise terms it determines, per sensor and axis.
 
-What a long static log (an Allan-variance run: hours of a unit left still) is recorded for. No calibration is
+What a long still log (an Allan-variance run: hours of a unit left still) is recorded for. No calibration is
 needed or made: the streams are taken in the units they were recorded in (counts, or the SI unit of an imported
-column), so one pose is enough where `rig calibrate` and `rig discrepancy` need many. The whole recording is one
-stretch; samples a sensor lacks are left out of its streams.
+column), so one pose is enough where `rig calibrate` and `rig discrepancy` need many. The stretch read is the
+whole recording, a part of it (`--start`, `--end`) or its longest still stretch (`--window still`); a warm-up at
+its start is named (`warm_up`, effects.md) and each sensor is analysed from where it has settled, unless
+`--keep-warm-up`. A term the record is too short for is said not determinable, with the bound the record gives
+(`rig.noise.terms`). Samples a sensor lacks are left out of its streams.
 """
 
 from __future__ import annotations
@@ -13,36 +16,45 @@ from pathlib import Path
 
 import click
 
-from rig.exits import CommandError, Exit, command_error
+from rig.exits import CommandError, Exit, FiniteFloat, command_error
 
-TERMS = (("N", "white noise", "per sqrt(Hz)"), ("B", "bias instability", ""), ("K", "rate random walk", "sqrt(Hz)"),
-         ("Q", "quantisation noise", "s"))
+TERMS = (("Q", "quantisation noise", "s"), ("N", "white noise", "per sqrt(Hz)"), ("B", "bias instability", ""),
+         ("K", "rate random walk", "sqrt(Hz)"))
 
 
 @click.command()
 @click.argument("session_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--start", "start_s", type=FiniteFloat(0), default=None, metavar="S",
+              help="Analyse from S seconds after the recording's start.")
+@click.option("--end", "end_s", type=FiniteFloat(0, low_open=True), default=None, metavar="S",
+              help="Analyse up to S seconds after the recording's start.")
+@click.option("--window", type=click.Choice(["record", "still"]), default="record", show_default=True,
+              help="record: the whole recording (or --start/--end); still: its longest still stretch within them.")
+@click.option("--keep-warm-up", is_flag=True,
+              help="Analyse from the stretch's start even where a warm-up is found (by default each sensor is "
+                   "analysed from where it has settled).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False, path_type=Path),
-              help="Also write the curves and the fitted terms as JSON.")
-def noise(session_dir, json_out):
+              help="Also write the curves, the terms and what was analysed as JSON.")
+def noise(session_dir, start_s, end_s, window, keep_warm_up, json_out):
     """The Allan deviation of a static recording and its noise terms, per sensor and axis.
 
     White noise, bias instability, rate random walk and quantisation noise (IEEE 952), in the units the recording
-    holds; no calibration is needed."""
+    holds; no calibration is needed. A term the record is too short to determine is said so. A warm-up at the
+    start is named and, unless --keep-warm-up, left out of the analysis."""
+    from fixtures.world.effects.warm_up import WarmUp
     from rig.commands.sessions import read_any_session
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
+    from rig.noise.analysis import analyse_still
 
     try:
         session = read_any_session(session_dir)
+        report = analyse_still(session, start_s=start_s, end_s=end_s, window=window, skip_warm_up=not keep_warm_up)
     except RigError as exc:
         raise command_error(exc) from None
-    report = static_noise(session)
-    for sensor, axes in report["sensors"].items():
-        unit = report["units"][sensor]
-        for axis, fit in axes.items():
-            terms = ", ".join(f"{name} {fit[key]:.4g} +/- {fit[key + '_std']:.2g} {unit}{' ' + per if per else ''}"
-                              for key, name, per in TERMS if fit[key] > 0)
-            click.echo(f"{sensor}.{axis}: {terms or 'no term fitted'} (tau {fit['tau_s'][0]:g}-{fit['tau_s'][-1]:g} s)")
+    report["effects"] = warm_ups(report, WarmUp.name)
+    for line in summary(report, WarmUp.name):
+        click.echo(line)
     if json_out is not None:
         try:
             json_out.parent.mkdir(parents=True, exist_ok=True)
@@ -52,37 +64,59 @@ def noise(session_dir, json_out):
         click.echo(f"wrote {json_out}")
 
 
-def static_noise(session) -> dict:
-    """Per sensor and axis: the overlapping Allan deviation (octave taus up to a third of the stream) and the
-    IEEE 952 terms fitted to it (`rig.noise.allan`)."""
-    import numpy as np
-
-    from rig.noise.allan import allan_deviation, fit_noise
-    from rig.noise.still import STILL_RATIO, stillness_ratio
-
-    rate = float(session.sample_rate_hz or 1.0 / np.median(np.diff(session.t)))
-    units = session.meta.get("units", {})
-    out = {"schema": "rig-noise/1", "session": str(session.source), "rate_hz": rate, "rows": int(len(session.t)),
-           "seconds": float(session.t[-1] - session.t[0]) if len(session.t) else 0.0,
-           "units": {s: units.get(s, "counts") for s in session.raw}, "sensors": {}}
-    for sensor, y in session.raw.items():
-        axes = {}
-        for k, axis in enumerate("xyz"):
-            stream = y[:, k]
-            try:
-                curve = allan_deviation(stream, rate)
-            except ValueError as exc:
-                raise CommandError(f"{session.source}: {sensor}.{axis}: {exc}", Exit.BAD_INPUT) from None
-            ratio = stillness_ratio(stream)
-            if ratio > STILL_RATIO:
-                raise CommandError(f"{session.source}: {sensor}.{axis} is not still: its spread is "
-                                   f"{ratio:.0f} times its sample-to-sample noise; `rig noise` "
-                                   "reads a static recording (one pose held), and the Allan deviation of a moving "
-                                   "one says nothing about its noise", Exit.BAD_INPUT)
-            terms = fit_noise(curve)
-            axes[axis] = {"tau_s": curve.tau.tolist(), "adev": curve.adev.tolist(), "adev_err": curve.err.tolist(),
-                          "samples": int(np.isfinite(stream).sum()),
-                          **{key: getattr(terms, key) for key in "NBKQ"},
-                          **{f"{key}_std": terms.std[key] for key in "NBKQ"}}
-        out["sensors"][sensor] = axes
+def warm_ups(report: dict, name: str) -> list[dict]:
+    """Each warm-up found, as an effect of the vocabulary: its `a` (the recording's unit) and `tau` (s)."""
+    out = []
+    for sensor, axes in report["sensors"].items():
+        for axis, fit in axes.items():
+            trend = fit["start_trend"]
+            if trend is not None:
+                out.append({"effect": name, "sensor": sensor, "axis": axis, "magnitude": abs(trend["a"]),
+                            "unit": report["units"][sensor], "params": trend})
     return out
+
+
+def _value(value: float, std: float | None = None) -> str:
+    return f"{value:.4g}" + (f" +/- {std:.2g}" if std is not None else "")
+
+
+def summary(report: dict, name: str) -> list[str]:
+    """The lines `rig noise` prints: what was analysed, each warm-up, and each axis's terms."""
+    analysed = report["analysed"]
+    lines = [f"analysed: {analysed['what']}, {analysed['start_s']:.1f}-{analysed['end_s']:.1f} s of the "
+             f"recording's {report['seconds']:.1f} s"]
+    for sensor, span in report["spans"].items():
+        if span["after_warm_up"]:
+            lines.append(f"  {sensor}: from {span['start_s']:.1f} s, after its warm-up (--keep-warm-up analyses it "
+                         "too)")
+    for found in report["effects"]:
+        p = found["params"]
+        kept = "" if analysed["skip_warm_up"] else "; analysed with it, its drift in the terms"
+        lines.append(f"{found['sensor']}.{found['axis']}: warm-up ({name}): a = {_value(p['a'], p['a_std'])} "
+                     f"{found['unit']}, tau = {_value(p['tau_s'], p['tau_s_std'])} s ({p['shape']}){kept}")
+    for sensor, axes in report["sensors"].items():
+        unit = report["units"][sensor]
+        for axis, fit in axes.items():
+            lines.append(f"{sensor}.{axis}: {axis_line(fit, unit)} (tau {fit['tau_s'][0]:g}-{fit['tau_s'][-1]:g} s)")
+    return lines
+
+
+def axis_line(fit: dict, unit: str) -> str:
+    """'white noise 0.2 +/- 0.001 counts per sqrt(Hz); bias instability not determinable from 60 s (below ...)'."""
+    fitted, unknown, absent = [], [], []
+    for key, term_name, per in TERMS:
+        term = fit["terms"][key]
+        full_unit = f"{unit}{' ' + per if per else ''}"
+        if term["status"] == "fitted":
+            fitted.append(f"{term_name} {_value(term['value'], term['std'])} {full_unit}")
+        elif term["status"] == "not determinable":
+            unknown.append((term_name, f"{term['bound']:.2g} {full_unit}"))
+        else:
+            absent.append((term_name, f"{term['bound']:.2g} {full_unit}"))
+    parts = list(fitted)
+    if unknown:
+        parts.append(f"{' and '.join(n for n, _ in unknown)} not determinable from {fit['record_s']:.4g} s (below "
+                     f"{', '.join(b for _, b in unknown)})")
+    for term_name, bound in absent:
+        parts.append(f"no {term_name} (below {bound})")
+    return "; ".join(parts)

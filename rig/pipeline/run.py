@@ -130,13 +130,16 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
                        method: str = "joint", settle_s: float = 0.5, gravity: float | None = None,
                        gyro_samples: str = "auto",
                        unit_serial: str | None = None, board: str | None = None,
-                       echo: Callable[[str], None] = print, move_samples: bool = True) -> SessionCalibration:
+                       echo: Callable[[str], None] = print, move_samples: bool = True,
+                       units: dict[str, str] | None = None,
+                       initial_rest_s: float | None = None) -> SessionCalibration:
     """Read a session folder, calibrate it, write `OUT/calibration.json`, echo a short summary.
 
     fmt "interchange": `session_dir` is an `imu-session-csv/1` folder; `gravity` overrides its meta.
     fmt "imu_tk": two ASCII files (accel, gyro; default: the one `*acc*` and one `*gyr*` file in
     `session_dir`, which may be None when both files are given), calibrated without a turntable;
-    `gravity` defaults to 9.80665 m/s^2 (the IMU-TK Xsens record was taken at 9.81744).
+    `gravity` defaults to 9.80665 m/s^2 (the IMU-TK Xsens record was taken at 9.81744); `units` (sensor -> unit,
+    counts where not named) and `initial_rest_s` are read as `rig import imu_tk` reads them.
     """
     if session_dir is None and fmt == "interchange":
         raise ValueError("an interchange session needs its folder")
@@ -153,7 +156,7 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
                   "gyro_samples": gyro_samples, "move_samples": move_samples}
     elif fmt == "imu_tk":
         g = STANDARD_GRAVITY if gravity is None else float(gravity)
-        result, source = _calibrate_imu_tk(session_dir, accel_file, gyro_file, g)
+        result, source = _calibrate_imu_tk(session_dir, accel_file, gyro_file, g, units, initial_rest_s)
         field_uT = None
     else:
         raise ValueError(f"fmt must be 'interchange' or 'imu_tk', got {fmt!r}")
@@ -170,14 +173,18 @@ def calibrate_from_dir(session_dir: str | os.PathLike | None, out_dir: str | os.
     return result
 
 
-def _calibrate_imu_tk(session_dir: Path, accel_file, gyro_file, gravity: float) -> tuple[SessionCalibration, dict]:
+def _calibrate_imu_tk(session_dir: Path, accel_file, gyro_file, gravity: float, units: dict[str, str] | None,
+                      initial_rest_s: float | None) -> tuple[SessionCalibration, dict]:
     """imu_tk's files read as `rig import imu_tk` reads them and calibrated as that recording is (one way through:
     the same fits, g-sensitivity and refusals as `rig calibrate --from` on the imported session)."""
     acc_path = _pick_file(session_dir, accel_file, "*acc*", "accel")
     gyr_path = _pick_file(session_dir, gyro_file, "*gyr*", "gyro")
-    session = import_imu_tk({"accel": acc_path, "gyro": gyr_path}, gravity=gravity)
+    session = import_imu_tk({"accel": acc_path, "gyro": gyr_path}, units=units, gravity=gravity,
+                            initial_rest_s=initial_rest_s)
     result = calibrate_without_table(session)
-    source = {"format": "imu_tk", "accel_file": str(acc_path), "gyro_file": str(gyr_path), "method": "turntable-free"}
+    source = {"format": "imu_tk", "accel_file": str(acc_path), "gyro_file": str(gyr_path), "method": "turntable-free",
+              "units": session.meta["imported"]["units"],
+              **({"initial_rest_s": initial_rest_s} if initial_rest_s else {})}
     return result, source
 
 

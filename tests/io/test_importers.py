@@ -14,6 +14,7 @@ from rig.errors import InputError, SessionFormatError
 from rig.io.import_csv import import_csv
 from rig.io.import_ferraris import import_ferraris
 from rig.io.import_imu_tk import import_imu_tk
+from rig.io.recording import IMPORT_UNITS
 from rig.io.session_csv import read_session
 from rig.io.session_writer import write_session
 
@@ -175,3 +176,84 @@ def test_the_command_writes_a_session_and_refuses_to_overwrite_it(tmp_path):
                               str(XSENS / "xsens_gyro.mat"), "--out", str(tmp_path / "x")],
                              capture_output=True, text=True, timeout=120)
     assert missing.returncode == 2 and "nope.txt" in missing.stderr and "no such file" in missing.stderr
+
+
+MIKOFF = DATA / "mikoff-imu-calib"
+SI = ["--units", "accel=m/s^2,gyro=rad/s", "--initial-rest-s", "7", "--gravity", "9.81"]
+
+
+def imu_tk_files(folder: Path) -> tuple[Path, Path]:
+    """mikoff's MPU-9150 log (m/s^2 and rad/s, 100 Hz, no time column: PROVENANCE.md) written in imu_tk's layout,
+    `timestamp x y z` per sensor, its numbers as the logger printed them: an IMU logged in SI units."""
+    rows = [line.split() for line in (MIKOFF / "imu0.log").read_text().splitlines() if line.strip()]
+    accel, gyro = folder / "acc.txt", folder / "gyr.txt"
+    accel.write_text("".join(f"{k / 100:.2f} {' '.join(r[:3])}\n" for k, r in enumerate(rows)))
+    gyro.write_text("".join(f"{k / 100:.2f} {' '.join(r[3:])}\n" for k, r in enumerate(rows)))
+    return accel, gyro
+
+
+def test_an_imu_tk_file_in_si_units_imports_and_calibrates_as_the_same_log_read_as_csv(tmp_path):
+    """The refusal of a file in SI units names --units, which every importer now takes: given as the message says,
+    `rig import imu_tk` and `rig calibrate --format imu_tk` read the log, and the calibration is the one its CSV
+    route makes (the route tests/recordings/test_mikoff_recording.py holds against its authors' method)."""
+    accel, gyro = imu_tk_files(tmp_path)
+    files = ["--accel", str(accel), "--gyro", str(gyro)]
+    refused = subprocess.run([*RIG, "import", "imu_tk", *files, "--out", str(tmp_path / "x")], capture_output=True,
+                             text=True, timeout=120)
+    assert refused.returncode == 2 and "say so with --units accel=m/s^2" in refused.stderr, refused.stderr
+    assert "acc.txt, line 1, column 'x'" in refused.stderr and not (tmp_path / "x").exists()
+
+    done = subprocess.run([*RIG, "import", "imu_tk", *files, *SI, "--out", str(tmp_path / "x")], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    session = read_session(tmp_path / "x")
+    assert session.meta["units"] == {"accel": "m/s^2", "gyro": "rad/s"} and session.meta["initial_rest_s"] == 7.0
+    assert abs(np.median(np.linalg.norm(session.raw["accel"], axis=1)) - 9.81) < 0.2
+
+    done = subprocess.run([*RIG, "calibrate", "--format", "imu_tk", *files, *SI, "--out", str(tmp_path / "tk"),
+                           "--no-progress"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, (done.stdout[-800:], done.stderr)
+    for args in (["import", "csv", str(MIKOFF / "imu0.log"), "--header-line", "0", "--delimiter", " ", "--rate-hz",
+                  "100", "--accel", "1,2,3", "--gyro", "4,5,6", *SI, "--out", str(tmp_path / "csv")],
+                 ["calibrate", "--from", str(tmp_path / "csv"), "--out", str(tmp_path / "csv_cal"), "--no-progress"]):
+        done = subprocess.run([*RIG, *args], capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, (args[:2], done.stdout[-800:], done.stderr)
+    ours = json.loads((tmp_path / "tk" / "calibration.json").read_text())
+    theirs = json.loads((tmp_path / "csv_cal" / "calibration.json").read_text())["sensors"]
+    assert ours["source"]["units"] == {"accel": "m/s^2", "gyro": "rad/s"}
+    assert set(ours["sensors"]) == set(theirs) == {"accel", "gyro"}
+    # the gyro's B is the mean of the 7 s rest, known to its samples' spread over their square root
+    rest = session.raw["gyro"][session.t < 7.0]
+    B_std = {"accel": np.array(ours["sensors"]["accel"]["B_std"]), "gyro": rest.std(axis=0) / np.sqrt(len(rest))}
+    for sensor, cal in ours["sensors"].items():
+        H, H_std = np.array(cal["H"]), np.array(cal["H_std"])
+        assert np.abs(np.diag(H) - 1).max() < 0.02, (sensor, np.diag(H))       # SI in, SI out: H near one
+        assert (np.abs(H - np.array(theirs[sensor]["H"])) <= 0.01 * H_std).all(), sensor
+        assert (np.abs(np.array(cal["B"]) - np.array(theirs[sensor]["B"])) <= 0.01 * B_std[sensor]).all(), sensor
+
+
+def test_imu_tk_files_in_g_are_kept_in_m_per_s2_and_a_unit_for_a_file_not_read_is_refused(tmp_path):
+    accel, gyro = tmp_path / "acc.txt", tmp_path / "gyr.txt"
+    accel.write_text("".join(f"{0.01 * k:.2f} 0.01 -0.02 1.0\n" for k in range(20)))
+    gyro.write_text("".join(f"{0.01 * k:.2f} 1 -2 3\n" for k in range(20)))
+    session = import_imu_tk({"accel": accel, "gyro": gyro}, units={"accel": "g"})
+    assert session.meta["units"] == {"accel": "m/s^2", "gyro": "counts"}
+    assert np.allclose(session.raw["accel"][0], [0.0980665, -0.196133, 9.80665], rtol=1e-12)
+    done = subprocess.run([*RIG, "import", "imu_tk", "--accel", str(accel), "--gyro", str(gyro), "--units",
+                           "accel=g,mag=uT", "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and "--units names mag" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_every_importer_takes_the_one_units_option():
+    """`rig import imu_tk|ferraris|csv` and `rig calibrate --format imu_tk` read --units from one definition."""
+    import click
+
+    from rig.cli import main
+
+    ctx = click.Context(main)
+    group = main.get_command(ctx, "import")
+    commands = [group.get_command(ctx, name) for name in group.list_commands(ctx)] + [main.get_command(ctx, "calibrate")]
+    options = [next((p for p in cmd.params if "--units" in p.opts), None) for cmd in commands]
+    assert len(commands) == 4 and all(options), [cmd.name for cmd, o in zip(commands, options) if o is None]
+    assert len({(o.help, o.metavar, o.default) for o in options}) == 1
+    assert all(unit in options[0].help for units in IMPORT_UNITS.values() for unit in units)
