@@ -106,7 +106,7 @@ def refuse_unless_taken(command: str, turntable: bool, sensors, where: str) -> U
     u = use(command, turntable, sensors)
     if u.taken:
         return u
-    others = [f"`rig {c}{' --from' if c == 'calibrate' else ''}`" for c in commands_taking(turntable, sensors)]
+    others = ["`rig calibrate --from`" if c == "calibrate" else f"`rig {c}`" for c in commands_taking(turntable, sensors)]
     kind = kind_name(turntable, sensors)
     why = f" ({u.why})" if u.why else ""
     raise InputError(f"{where}: `rig {command}` cannot use a recording of kind {kind} ({_has(sensors)}): it "

@@ -128,7 +128,7 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, rest: Ini
                 raise CalibrationError(f"turntable-free: the first {rest.seconds:g} s are not at rest (the unit moves "
                                        f"in them), though the recording says they are (initial_rest_s); the data show "
                                        f"{f'an initial rest of {data.seconds:.3g} s' if data.found else 'none'}: "
-                                       "import it again without --initial-rest-s to take the rest from the data")
+                                       "run rig import again without --initial-rest-s to take the rest from the data")
         if saturated:
             raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals left for every k in "
                                    f"{list(k_values)} once the {saturated} with a saturated accelerometer are left "

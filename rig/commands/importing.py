@@ -88,7 +88,7 @@ def recording_uses(sensors: list[str]) -> str:
     for command in COMMANDS:
         u = use(command, False, sensors)
         if u.taken:
-            taken.append(f"rig {command}" + (" --from" if command == "calibrate" else "")
+            taken.append(("rig calibrate --from" if command == "calibrate" else f"rig {command}")
                          + (f" ({u.note})" if u.note else ""))
         elif u.lacks_sensor:
             not_taken.append(f"rig {command} ({u.note})")
