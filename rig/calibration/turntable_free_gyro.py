@@ -13,10 +13,10 @@ the different poses make all of H observable.
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats, scalar_search
 from rig.calibration.gyro_still import GYRO_K, split_turning, turning_threshold
-from rig.calibration.levenberg import minimise
 from rig.calibration.result import TriadCalibration
 from rig.calibration.sampling import refuse_coarse_motions
 from rig.calibration.saturation import pinned_rows, rail_names
@@ -98,7 +98,7 @@ def calibrate_gyro_gravity(t: np.ndarray, gyro_raw: np.ndarray, g_body: np.ndarr
         r = residuals(X.reshape(-1, 3, 3) * s, ms).reshape(10, -1)
         return ((r[1:] - r[0]) / step).T
 
-    res = minimise(fun, jac, np.eye(3).ravel(), tol=1e-12)
+    res = least_squares(fun, np.eye(3).ravel(), jac=jac, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12)
     rank = int(np.linalg.matrix_rank(res.jac))
     if rank < 9:
         left = f" ({len(clipped)} more were left out: {rail}, saturated)" if clipped else ""
