@@ -17,8 +17,7 @@ import pytest
 CALIBRATION_PATH = ["rig.calibration.gyro", "rig.calibration.gyro_start", "rig.calibration.joint",
                     "rig.calibration.lever_arm", "rig.calibration.twostep", "rig.calibration.ellipsoid",
                     "rig.calibration.quantisation", "rig.calibration.integrate", "rig.rotations", "rig.quaternions",
-                    "rig.session_data", "rig.unscented", "rig.calibration.regression", "rig.calibration.recording",
-                    "rig.pipeline.run"]
+                    "rig.session_data", "rig.calibration.regression", "rig.calibration.recording", "rig.pipeline.run"]
 RUNNING_SESSION = {"fixtures", "procedures", "pymodbus", "matplotlib", "tqdm"}
 
 
