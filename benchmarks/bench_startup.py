@@ -1,9 +1,7 @@
 """Start-up of the `rig` command as a process: `rig --help` and `rig calibrate --from` on a default session.
 
-A command should load what it uses: listing the commands must not import scipy or the simulated hardware, and
-calibrating a recorded session must not pay for what only a running session needs. Targets (issue 17): `rig --help`
-within 0.15 s, `calibrate --from` on a default session within 0.4 s, both as whole processes. Also reports the
-slowest imports of each (python -X importtime), so a regression says where it came from.
+Both timed as whole processes, as a user waits for them (median and minimum of --repeat runs), with the slowest
+imports of each (python -X importtime), so a change in start-up says where it came from.
 
 Byte-code caches are warm, as in an installed rig after its first run: the children run without
 PYTHONDONTWRITEBYTECODE (which some shells and CI set; with it an editable install compiles every rig module
@@ -23,7 +21,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "io")]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "io"), str(ROOT / "benchmarks")]
 
 from io_synthetic import build_session  # noqa: E402
 import stamp  # noqa: E402  (benchmarks/stamp.py)
@@ -75,15 +73,13 @@ def main() -> None:
         from_argv = [*RIG, "calibrate", "--from", str(folder), "--out", str(Path(tmp) / "out")]
         subprocess.run(from_argv, capture_output=True, env=CACHED)       # warm the byte-code caches
         result = {
-            "benchmark": "startup",
-            "python": sys.version.split()[0],
-            "help": {**timed(help_argv, args.repeat), "target_s": 0.15, "slowest_imports": slowest_imports(help_argv)},
-            "calibrate_from": {**timed(from_argv, args.repeat), "rows": int(len(session.t)), "target_s": 0.4,
+            "help": {**timed(help_argv, args.repeat), "slowest_imports": slowest_imports(help_argv)},
+            "calibrate_from": {**timed(from_argv, args.repeat), "rows": int(len(session.t)),
                                "slowest_imports": slowest_imports(from_argv)},
             "repeat": args.repeat,
         }
-    figures = {"help_median_s": result["help"]["median_s"], "help_target_s": 0.15,
-               "calibrate_from_median_s": result["calibrate_from"]["median_s"], "calibrate_from_target_s": 0.4}
+    figures = {"help_median_s": result["help"]["median_s"],
+               "calibrate_from_median_s": result["calibrate_from"]["median_s"]}
     stamp.report(run, figures, {k: v for k, v in result.items() if k != "benchmark"}, save=args.save)
 
 

@@ -40,8 +40,8 @@ import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from filterpy.kalman import MerweScaledSigmaPoints
 
-from rig import unscented
 from rig.attitude import kernel
 from rig.attitude.measurements import Gates, Prepared, StillDetector, dip_of, field_in_navigation, prepare, tilt_only, triad
 from rig.attitude.noise import SensorNoise
@@ -92,9 +92,10 @@ class AttitudeEstimate:
 
 def sigma_weights(settings: UKFSettings, n: int = STATE_DIM) -> tuple[float, float, float, float]:
     """(c, Wm0, Wc0, Wi) of the scaled unscented transform (eqs. 23-28): filterpy's MerweScaledSigmaPoints
-    weights (rig.unscented, held equal to filterpy's in tests/startup/test_unscented.py)."""
-    w = unscented.merwe_weights(n, alpha=settings.alpha, beta=settings.beta, kappa=settings.kappa)
-    return math.sqrt(n + w.lam), float(w.Wm[0]), float(w.Wc[0]), float(w.Wm[1])
+    weights, and the sigma points' spread c = sqrt(n + lambda), lambda = alpha^2 (n + kappa) - n."""
+    w = MerweScaledSigmaPoints(n, alpha=settings.alpha, beta=settings.beta, kappa=settings.kappa)
+    lam = settings.alpha ** 2 * (n + settings.kappa) - n
+    return math.sqrt(n + lam), float(w.Wm[0]), float(w.Wc[0]), float(w.Wm[1])
 
 
 def initial_rows(t: np.ndarray, init_s: float) -> np.ndarray:

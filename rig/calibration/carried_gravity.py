@@ -32,10 +32,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats
 from rig.calibration.integrate import interval_rotvecs, product_of_exps, quat_exp
-from rig.calibration.levenberg import minimise
 from rig.quaternions import matrix_from_quat, quat_conjugate, quat_multiply, rotvec_from_quat
 from rig.session_data import MoveStream
 
@@ -102,7 +102,8 @@ def fit_carried_gravity(moves: list[MoveStream], B: np.ndarray, B_cov: np.ndarra
         r = residuals(X, ms).reshape(10, -1)
         return ((r[1:] - r[0]) / step).T
 
-    res = minimise(lambda x: residuals(x, ms).ravel(), jacobian, np.eye(3).ravel(), tol=1e-12)
+    res = least_squares(lambda x: residuals(x, ms).ravel(), np.eye(3).ravel(), jac=jacobian, method="lm", xtol=1e-12,
+                        ftol=1e-12, gtol=1e-12)
     J, r0 = res.jac, res.fun
     rank = int(np.linalg.matrix_rank(J))
     H = res.x.reshape(3, 3) * scale

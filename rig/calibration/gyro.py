@@ -10,10 +10,10 @@ measurement is our reconstruction: per move, the rotation vector of `R_known^T R
 expected value is zero. Using the rotation error (not Euler angles or a quaternion difference)
 keeps the measurement 3-dimensional, smooth at the solution and free of sign ambiguity.
 
-The filter is filterpy's unscented update written in numpy (rig.unscented; the gyro tests run the fit
-through filterpy's UnscentedKalmanFilter too and hold both equal), and the scale search runs scipy's
-bounded Brent (calibration.brent): importing filterpy and scipy.optimize would cost more than a whole
-`rig calibrate --from` may take (issue 17, start-up).
+The filter's sigma points and measurement transform are filterpy's (MerweScaledSigmaPoints,
+unscented_transform); its update is written out because filterpy's UnscentedKalmanFilter calls h once per
+sigma point, and here h integrates a whole move, for all sigma points in one vectorised call (the gyro tests
+hold the fit equal to one run through filterpy's filter). The scale search refines by scipy's bounded Brent.
 """
 
 from __future__ import annotations
@@ -21,8 +21,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from rig import unscented
-from rig.calibration.brent import minimize_bounded
+from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
+from scipy.optimize import minimize_scalar
+
 from rig.calibration.gyro_start import start_candidates
 from rig.calibration.integrate import SAMPLE_MODELS, cross, interval_terms, product_of_exps
 from rig.calibration.result import TriadCalibration
@@ -238,8 +239,9 @@ def scalar_search(cost_batch, lo: float, hi: float, step: float = 1.05) -> float
     costs = np.concatenate([cost_batch(chunk) for chunk in np.array_split(grid, max(1, len(grid) // 16))])
     i = int(np.argmin(costs))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-    x, fx, _ = minimize_bounded(lambda s: float(cost_batch(np.array([s]))[0]), a, b, xatol=1e-6 * grid[i])
-    return float(x) if fx <= costs[i] else float(grid[i])
+    best = minimize_scalar(lambda s: float(cost_batch(np.array([s]))[0]), bounds=(a, b), method="bounded",
+                           options={"xatol": 1e-6 * grid[i]})
+    return float(best.x) if best.fun <= costs[i] else float(grid[i])
 
 
 def _scalar_cost(s: np.ndarray, ms: MoveSet, Q: np.ndarray) -> np.ndarray:
@@ -284,7 +286,7 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
         raise ValueError(f"calibrate_gyro_ukf: noise_rad must be positive, got {noise_rad!r}")
     if max_passes < 1:
         raise ValueError(f"calibrate_gyro_ukf: max_passes must be >= 1, got {max_passes}")
-    weights = unscented.merwe_weights(9, alpha=sigma_alpha, beta=2.0, kappa=0.0)
+    points = MerweScaledSigmaPoints(9, alpha=sigma_alpha, beta=2.0, kappa=0.0)
     Q = np.eye(9) * process_rel_std ** 2
     full = _singles(ms)
     coarse = full if first_pass_stride <= 1 else _singles(MoveSet.build(decimated(moves, first_pass_stride), B, samples))
@@ -293,7 +295,7 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
     for passes in range(1, max_passes + 1):
         x, P = H.ravel() / s, np.eye(9) * prior ** 2
         for one, wi in zip(coarse if passes == 1 else full, w):
-            x, P = _ukf_move_update(x, P, Q, one, s, noise_rad ** 2 * wi, weights)
+            x, P = _ukf_move_update(x, P, Q, one, s, noise_rad ** 2 * wi, points)
         H_new = x.reshape(3, 3) * s
         change = float(np.linalg.norm(H_new - H) / np.linalg.norm(H_new))
         spread = float(np.sqrt(np.max(np.diag(P)) * _variance_factor(H_new, ms, noise_rad, w)))
@@ -368,16 +370,23 @@ def _variance_factor(H: np.ndarray, ms: MoveSet, noise_rad: float, w: np.ndarray
 
 
 def _ukf_move_update(x: np.ndarray, P: np.ndarray, Q: np.ndarray, one: MoveSet, s: float, r_var: float,
-                     weights: unscented.MerweWeights) -> tuple[np.ndarray, np.ndarray]:
+                     points: MerweScaledSigmaPoints) -> tuple[np.ndarray, np.ndarray]:
     """Predict, then update (x, P) with one move; h(x) of all sigma points comes from one batched integration.
 
     The prediction is the identity process: the unscented transform would return x and P unchanged, so
-    only the process noise is added before the sigma points are drawn.
+    only the process noise is added before the sigma points are drawn. The update is the UKF's (Wan & van der
+    Merwe, "The unscented Kalman filter for nonlinear estimation", 2000; filterpy's UnscentedKalmanFilter.update
+    computes the same): the measurement's mean zp and covariance S by the unscented transform, the cross
+    covariance Pxz = sum Wc_i (X_i - x)(Z_i - zp)^T, the gain K = Pxz S^-1, then x - K zp (the measurement is
+    z = 0) and P - K S K^T.
     """
     P = P + Q
-    sigmas = unscented.sigma_points(x, P, weights)
+    sigmas = points.sigma_points(x, P)
     z_sigma = rotation_residuals(sigmas.reshape(-1, 3, 3) * s, one)[:, 0, :]
-    x, P = unscented.update(x, P, sigmas, z_sigma, np.zeros(3), np.eye(3) * r_var, weights)
+    zp, S = unscented_transform(z_sigma, points.Wm, points.Wc, np.eye(3) * r_var)
+    Pxz = (points.Wc[:, None] * (sigmas - x)).T @ (z_sigma - zp)
+    K = Pxz @ np.linalg.inv(S)
+    x, P = x - K @ zp, P - K @ S @ K.T
     return x, 0.5 * (P + P.T)
 
 

@@ -7,16 +7,16 @@ few holds the ellipsoid centre is the weakest link. Here every hold is used for 
 
 v the reference (gravity or geomagnetic field) in the world frame, its direction unknown (table not level,
 unknown dip/declination). Start: alternating linear least squares ((H^-1, B) given v; v given H^-1, B),
-then the maximum-likelihood refinement by Levenberg-Marquardt with the analytic Jacobian (levenberg.py;
-scipy's `least_squares(method="lm")` when that does not converge), weights 1/sigma_k with
+then the maximum-likelihood refinement by Levenberg-Marquardt with the analytic Jacobian (MINPACK's, through
+scipy's `least_squares(method="lm")`), weights 1/sigma_k with
 sigma_k = y_std_k / sqrt(count_k), and the parameter covariance (J^T J)^-1.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import least_squares
 
-from rig.calibration.levenberg import minimise
 from rig.calibration.observability import direction_problems, tangent_basis, validate_holds
 from rig.calibration.quantisation import QUANTISATION_STD, mean_standard_error
 from rig.calibration.result import TriadCalibration
@@ -196,7 +196,7 @@ def _refine_ml(y, R, norm, sigma, start: TriadCalibration, v0, weighted: bool) -
         return (J / sigma[:, :, None]).reshape(3 * n, N_PARAMS)
 
     p0 = np.concatenate([start.B, start.H.ravel(), np.zeros(2)])
-    sol = least_squares_lm(residuals, jacobian, p0)
+    sol = least_squares(residuals, p0, jac=jacobian, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14)
     B, H, v, _ = unpack(sol.x)
     dof = 3 * n - N_PARAMS
     chi2_red = float(2 * sol.cost / dof) if dof > 0 else float("nan")
@@ -225,11 +225,6 @@ def _refine_ml(y, R, norm, sigma, start: TriadCalibration, v0, weighted: bool) -
     out.extra["reference_world"] = v.tolist()
     out.extra["reduced_chi2"] = chi2_red
     return out
-
-
-def least_squares_lm(residuals, jacobian, p0: np.ndarray):
-    """The refinement's minimiser (levenberg.minimise: ours, else scipy's MINPACK from the same start)."""
-    return minimise(residuals, jacobian, p0, tol=1e-14)
 
 
 def _fix_sign(result: TriadCalibration) -> None:

@@ -15,8 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from rig.calibration.tails import chi2_sf, f_sf
+from scipy import stats
+from scipy.ndimage import uniform_filter1d
 
 # The angular acceleration is a derivative of a noisy rate. Averaged over this span its noise shrinks
 # (in the fit and in the compensated accelerometer) while a trapezoid's acceleration phases, hundreds
@@ -62,7 +62,7 @@ def rate_and_derivative(t: np.ndarray, gyro: np.ndarray,
     dw = np.gradient(wg, tg, axis=0)
     width = _width(tg, SMOOTH_S if smooth_s is None else smooth_s)
     if width > 1:
-        dw = moving_mean(dw, width)
+        dw = uniform_filter1d(dw, width, axis=0, mode="nearest")
     if have.all():
         return wg, dw
     interp = lambda a: np.column_stack([np.interp(t, tg, a[:, k]) for k in range(3)])  # noqa: E731
@@ -101,8 +101,8 @@ def estimate_lever_arm(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, R_ref
     b_all = accel[have] - gravity * R_ref[have, 2, :]
     width = _width(t[have], SMOOTH_S)
     if width > 1:
-        A_all = moving_mean(A_all, width)
-        b_all = moving_mean(b_all, width)
+        A_all = uniform_filter1d(A_all, width, axis=0, mode="nearest")
+        b_all = uniform_filter1d(b_all, width, axis=0, mode="nearest")
     pick = np.searchsorted(np.flatnonzero(have), rows)
     A, b = A_all[pick].reshape(-1, 3), b_all[pick].reshape(-1)
     AtA = A.T @ A
@@ -125,28 +125,8 @@ def _wald_p_value(r: np.ndarray, cov: np.ndarray, clusters: int) -> float:
     flags a tenth of a millimetre on a rig without a lever arm."""
     wald = float(r @ np.linalg.solve(cov, r))
     if clusters < 2:
-        return chi2_sf(wald, 3)
-    return f_sf(wald / 3.0, 3, clusters - 1)
-
-
-def moving_mean(a: np.ndarray, width: int) -> np.ndarray:
-    """The mean over `width` (odd) rows centred on each row, the ends extended by their edge rows: scipy's
-    `ndimage.uniform_filter1d(a, width, axis=0, mode="nearest")` (the reference in the tests), whose import
-    costs more than a whole `rig calibrate --from` may take (issue 17, start-up)."""
-    a = np.asarray(a, dtype=float)
-    if len(a) == 0 or width <= 1:
-        return a.copy()
-    total = a.copy()                       # each window summed in full: no running sum to drift
-    for shift in range(1, width // 2 + 1):
-        if shift >= len(a):                # the window passes both ends: edge rows only
-            total[:] += a[0] + a[-1]
-            continue
-        total[shift:] += a[:-shift]
-        total[:shift] += a[0]
-        total[:-shift] += a[shift:]
-        total[-shift:] += a[-1]
-    total /= width
-    return total
+        return float(stats.chi2.sf(wald, 3))
+    return float(stats.f.sf(wald / 3.0, 3, clusters - 1))
 
 
 def _width(t: np.ndarray, span_s: float) -> int:

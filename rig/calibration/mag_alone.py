@@ -19,7 +19,7 @@ texts could not be retrieved here: they are cited by what they do, not by equati
    `r_k = (|S d_k| - 1) / |S e_k|`, `d_k = y_k - B`, `e_k = S d_k / |S d_k|`, the algebraic residual over its
    gradient in y (the gradient-weighted distance of Sampson, Computer Graphics and Image Processing 18, 1982,
    and Taubin, IEEE Trans. PAMI 13, 1991). Minimised over B and the six entries of the symmetric S by
-   Levenberg-Marquardt (`levenberg.minimise`) with the analytic Jacobian below.
+   Levenberg-Marquardt (scipy's `least_squares`, MINPACK) with the analytic Jacobian below.
 3. Bias: the distances of noisy samples are not zero-mean at the truth (a noisy point lies outside its sphere
    on average, the "essential bias" of geometric fits; Al-Sharadqah and Chernov, Electronic Journal of
    Statistics 3, 2009), which moves the estimate by O(sigma^2) where its deviation shrinks as sigma / sqrt(n):
@@ -40,10 +40,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from rig.calibration.ellipsoid import fit_ellipsoid, sphere_map
 from rig.calibration.field_norm import to_data_field
-from rig.calibration.levenberg import minimise
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
 
@@ -196,7 +196,8 @@ def _solve(z: np.ndarray, x0: np.ndarray):
             last["x"], last["value"] = x.copy(), _residuals_and_jacobian(x, z)
         return last["value"]
 
-    res = minimise(lambda x: both(x)[0], lambda x: both(x)[1], x0, tol=1e-12, max_nfev=100)
+    res = least_squares(lambda x: both(x)[0], x0, jac=lambda x: both(x)[1], method="lm", xtol=1e-12, ftol=1e-12,
+                        gtol=1e-12, max_nfev=100)
     return res.x, res
 
 

@@ -14,10 +14,10 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from rig.calibration.ellipsoid import fit_ellipsoid, sphere_map
 from rig.calibration.fit_noise import group_sigmas, sphere_noise_bias
-from rig.calibration.levenberg import minimise
 from rig.calibration.mag_model import jacobian, residuals
 from rig.rotations import axis_angle_matrix
 
@@ -54,7 +54,7 @@ def best_rotation(S: np.ndarray, B: np.ndarray, groups: list[tuple[np.ndarray, n
         def fun(x, P=P):
             Q = _rotation(x) @ P
             return np.concatenate([_centred((v @ Q.T * d).sum(axis=1)) for v, d in a])
-        res = minimise(fun, None, np.zeros(3), tol=1e-12, max_nfev=200)
+        res = least_squares(fun, np.zeros(3), method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200)
         rms = float(np.sqrt(np.mean(res.fun ** 2)))
         if rms < best_rms:
             best, best_rms = _rotation(res.x) @ P, rms
@@ -80,8 +80,9 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
         w = 1.0 / np.maximum(sigma, floors)[kinds]
         p0 = np.concatenate([B, H.ravel() / norm, [float(np.mean(((gy - B) @ H.T * d).sum(axis=1))) / norm
                                                    for gy, d in groups]])
-        res = minimise(lambda p: residuals(p, y, groups) * w, lambda p: jacobian(p, y, groups) * w[:, None],
-                       p0, tol=1e-13, max_nfev=200)
+        res = least_squares(lambda p: residuals(p, y, groups) * w, p0,
+                            jac=lambda p: jacobian(p, y, groups) * w[:, None],
+                            method="lm", xtol=1e-13, ftol=1e-13, gtol=1e-13, max_nfev=200)
         B, H = res.x[:3], res.x[3:12].reshape(3, 3) * norm
         r = res.fun / w
         noise = sigma = group_sigmas(r, jacobian(res.x, y, groups) * w[:, None], kinds)

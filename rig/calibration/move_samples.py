@@ -24,8 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
-from rig.calibration.levenberg import minimise
 from rig.calibration.observability import tangent_basis
 from rig.calibration.result import TriadCalibration
 from rig.errors import CalibrationError
@@ -161,7 +161,7 @@ def _fit(hold_fit: TriadCalibration, y_means: np.ndarray, R: np.ndarray, sigma_h
         return (J / S[:, :, None]).reshape(3 * len(Y), n_params)
 
     p0 = np.concatenate([hold_fit.B, hold_fit.H.ravel(), np.zeros(2 + groups)])
-    sol = minimise(residuals, jacobian, p0, tol=1e-14)
+    sol = least_squares(residuals, p0, jac=jacobian, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14)
     B, H, v, _, _ = unpack(sol.x)
     offsets = sol.x[N_FIXED:]
     if not (np.isfinite(sol.x).all() and sol.success):

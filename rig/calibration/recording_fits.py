@@ -4,7 +4,7 @@ Accelerometer from static poses, `H (y_k - B) = g u_k`: where a pose says which 
 direction `u_k` is that axis tilted by a small unknown angle with the prior standard deviation the procedure
 gives (`tilt_deg_sd`: a hand-placed face is not at its nominal attitude, and taking it as exact puts the tilt
 into H); a pose without that knowledge only says `|H (y_k - B)| = g`. Maximum a posteriori over B, H and the
-tilts (Levenberg-Marquardt, `levenberg.minimise`); the faces' priors fix the orientation of the frame that the norms alone
+tilts (Levenberg-Marquardt, MINPACK's); the faces' priors fix the orientation of the frame that the norms alone
 leave free.
 
 Gyroscope: B from the static poses; H from what the recording knows of its motions. A turn of known angle
@@ -19,11 +19,11 @@ open. Both enter one weighted least-squares fit; a motion's miss is weighed alon
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from rig.calibration.carry_weight import PRIOR, CarryWeight, angle_directions, weighted_miss
 from rig.calibration.gyro import MoveSet, decimated, integrated_quats
 from rig.calibration.jackknife import one_step_deletions, scatter_to_stated
-from rig.calibration.levenberg import minimise
 from rig.errors import CalibrationError
 from rig.session_data import MoveStream
 
@@ -107,7 +107,7 @@ def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_
         return np.maximum(np.sqrt((se ** 2) @ (H ** 2).T), MEAN_SE_FLOOR * norm)
 
     p0 = np.concatenate([B0, (H0 / scale).ravel(), np.zeros(2 * n_known)])
-    res = minimise(residuals, None, p0, tol=1e-14, max_nfev=2000)
+    res = least_squares(residuals, p0, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=2000)
     B, H, d = unpack(res.x)
     u = np.zeros_like(means)
     a = (means - B) @ H.T
@@ -191,7 +191,8 @@ def gyro_rotation_fit(B: np.ndarray, turns: list[tuple[np.ndarray, np.ndarray, f
         last["jac"] = (x.copy(), J)
         return J
 
-    res = minimise(fun, jac, (H0 / scale).ravel(), tol=1e-13, max_nfev=400)
+    res = least_squares(fun, (H0 / scale).ravel(), jac=jac, method="lm", xtol=1e-13, ftol=1e-13, gtol=1e-13,
+                        max_nfev=400)
     H = res.x.reshape(3, 3) * scale
     J = res.jac
     n_turns = len(M)

@@ -1,13 +1,11 @@
 """Ordinary least squares with its nested F test: the one regression test behind the effects a recording's pose
 means show, whether the discrepancy analysis names them (`rig.discrepancy.recording`) or the calibration takes
-one into its model (`rig.calibration.g_sensitivity`). Its F tail is `tails.f_sf`: scipy.stats costs 0.6 s to
-import, four times a simulated session's calibration."""
+one into its model (`rig.calibration.g_sensitivity`)."""
 
 from __future__ import annotations
 
 import numpy as np
-
-from rig.calibration.tails import f_sf
+from scipy import stats
 
 
 def nested_f(X_full: np.ndarray, X_red: np.ndarray, y: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -22,7 +20,7 @@ def nested_f(X_full: np.ndarray, X_red: np.ndarray, y: np.ndarray) -> tuple[floa
     if dof <= 0 or rss_full <= 0:
         return 1.0, coef, np.linalg.pinv(X_full.T @ X_full)
     F = ((rss_red - rss_full) / q) / (rss_full / dof)
-    return f_sf(F, q, dof), coef, np.linalg.pinv(X_full.T @ X_full)
+    return float(stats.f.sf(F, q, dof)), coef, np.linalg.pinv(X_full.T @ X_full)
 
 
 def resvar(X: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -21,9 +21,9 @@ Follows imu_tk (Tedaldi et al., ICRA 2014), with our model `u = H (y - B)`:
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from rig.calibration.ellipsoid import fit_ellipsoid
-from rig.calibration.levenberg import minimise
 from rig.calibration.norm_fit_cov import stated_uncertainty
 from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
@@ -204,7 +204,8 @@ def fit_accel_upper(chunks: list[np.ndarray], gravity: float, per_sample: bool =
         H[UPPER] = p[3:] * scale
         return gravity - np.linalg.norm((samples - p[:3]) @ H.T, axis=1)
 
-    res = minimise(residual, None, np.concatenate([B0, H0[UPPER] / scale]), tol=1e-12)
+    res = least_squares(residual, np.concatenate([B0, H0[UPPER] / scale]), method="lm", xtol=1e-12, ftol=1e-12,
+                        gtol=1e-12)
     H = np.zeros((3, 3))
     H[UPPER] = res.x[3:] * scale
     return res.x[:3], H, float(0.5 * res.fun @ res.fun)

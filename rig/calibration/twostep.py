@@ -22,7 +22,6 @@ import numpy as np
 from rig.calibration.ellipsoid import fit_ellipsoid, sphere_map
 from rig.calibration.observability import ELLIPSOID_MIN_DIRECTIONS, count_distinct, validate_holds
 from rig.calibration.result import TriadCalibration
-from rig.calibration.small_lapack import solve, symmetric_eigen
 from rig.errors import CalibrationError
 
 MIN_ORIENTATIONS = 9
@@ -40,7 +39,7 @@ def calibrate_two_step(y_means: np.ndarray, R: np.ndarray, norm: float, *, max_i
     fit = fit_ellipsoid(y, what="two-step", check_repeats=False)
     n = len(y)
     Z = (y - fit.center).T
-    Zpinv = solve(Z @ Z.T, Z).T                                   # (n, 3) pseudo-inverse of the full-rank Z
+    Zpinv = np.linalg.solve(Z @ Z.T, Z).T                                   # (n, 3) pseudo-inverse of the full-rank Z
     G = (R.reshape(n, 9).T @ Zpinv).reshape(3, 9)                 # step (ii): vec H = v @ G
     M = np.einsum("kab,jbk->aj", R, (G.reshape(9, 3) @ Z).reshape(3, 3, n)) / n   # (ii)+(i): v <- M v
     R_wide = R.transpose(1, 0, 2).reshape(3, 3 * n)               # sum_k R_k w_k = R_wide @ w.ravel()
@@ -66,7 +65,7 @@ def _iterate(v: np.ndarray, M: np.ndarray, G: np.ndarray, h: np.ndarray, norm: f
     """
     history = [] if record_history else None
     it, tol2 = 0, tol * tol
-    w, Q = symmetric_eigen(M)
+    w, Q = np.linalg.eigh(M)
     while it < max_iter:
         m = min(CHUNK, max_iter - it)
         V = ((w ** _ROUNDS) * (v @ Q)) @ Q.T     # rows M^j v, j = 0 .. CHUNK - 1

@@ -93,13 +93,13 @@ def test_mirrored_axis_is_flagged_not_silently_fitted(rng):
         assert any("does not explain the moves" in w for w in cal.warnings)
 
 
-def _filterpy_move_update(x, P, Q, one, s, r_var, weights):
+def _filterpy_move_update(x, P, Q, one, s, r_var, fit_points):
     """The fit's predict and update of one move through filterpy's UnscentedKalmanFilter, the reference."""
     from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
     from rig.calibration.gyro import rotation_residuals
 
-    points = MerweScaledSigmaPoints(9, alpha=weights.alpha, beta=weights.beta, kappa=weights.kappa)
+    points = MerweScaledSigmaPoints(9, alpha=fit_points.alpha, beta=fit_points.beta, kappa=fit_points.kappa)
     ukf = UnscentedKalmanFilter(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
     ukf.x, ukf.P, ukf.Q = x.copy(), P + Q, Q
     ukf.compute_process_sigmas(1.0)
@@ -111,7 +111,8 @@ def _filterpy_move_update(x, P, Q, one, s, r_var, weights):
 
 @pytest.mark.parametrize("noise", [0.0, 0.005])
 def test_fit_equals_filterpys_unscented_filter(rng, monkeypatch, noise):
-    """The fit's numpy filter (rig.unscented) gives filterpy's result, pass by pass, to round-off."""
+    """The fit's batched update (filterpy's sigma points and unscented transform, the gain written out) gives
+    filterpy's UnscentedKalmanFilter's result, pass by pass, to round-off."""
     import rig.calibration.gyro as gyro
 
     for _ in range(3):

@@ -24,8 +24,6 @@ LAZY_ALLOWED = {
     ("drivers.buses", "spidev"): "an optional package (pip extra 'spi'): loaded when a bus is opened, with a message "
                                  "naming the extra when it is missing",
     ("rig.attitude.peers", "ahrs.filters"): "a peer's filter, loaded only when the comparison with it is asked for",
-    ("rig.calibration.levenberg", "scipy.optimize"): "MINPACK only as the fallback, so no calibration path pays "
-                                                    "scipy.optimize's import (start-up, issue 17.8)",
     ("rig.noise.allan", "allantools"): "start-up: allantools only when an Allan deviation is computed",
     ("rig.noise.statistics", "scipy.signal"): "start-up: scipy.signal only for a spectrum",
     ("rig.discrepancy.plots", "matplotlib"): "start-up: matplotlib only when plots are written",
