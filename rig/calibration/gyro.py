@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
 from scipy.optimize import minimize_scalar
 
 from rig.calibration.gyro_start import start_candidates
@@ -286,6 +285,8 @@ def calibrate_gyro_ukf(moves: list[MoveStream], B: np.ndarray, *, H0: np.ndarray
         raise ValueError(f"calibrate_gyro_ukf: noise_rad must be positive, got {noise_rad!r}")
     if max_passes < 1:
         raise ValueError(f"calibrate_gyro_ukf: max_passes must be >= 1, got {max_passes}")
+    from filterpy.kalman import MerweScaledSigmaPoints   # with scipy.stats, a second of import only this fit uses
+
     points = MerweScaledSigmaPoints(9, alpha=sigma_alpha, beta=2.0, kappa=0.0)
     Q = np.eye(9) * process_rel_std ** 2
     full = _singles(ms)
@@ -370,7 +371,7 @@ def _variance_factor(H: np.ndarray, ms: MoveSet, noise_rad: float, w: np.ndarray
 
 
 def _ukf_move_update(x: np.ndarray, P: np.ndarray, Q: np.ndarray, one: MoveSet, s: float, r_var: float,
-                     points: MerweScaledSigmaPoints) -> tuple[np.ndarray, np.ndarray]:
+                     points) -> tuple[np.ndarray, np.ndarray]:
     """Predict, then update (x, P) with one move; h(x) of all sigma points comes from one batched integration.
 
     The prediction is the identity process: the unscented transform would return x and P unchanged, so
@@ -380,6 +381,8 @@ def _ukf_move_update(x: np.ndarray, P: np.ndarray, Q: np.ndarray, one: MoveSet, 
     covariance Pxz = sum Wc_i (X_i - x)(Z_i - zp)^T, the gain K = Pxz S^-1, then x - K zp (the measurement is
     z = 0) and P - K S K^T.
     """
+    from filterpy.kalman import unscented_transform
+
     P = P + Q
     sigmas = points.sigma_points(x, P)
     z_sigma = rotation_residuals(sigmas.reshape(-1, 3, 3) * s, one)[:, 0, :]

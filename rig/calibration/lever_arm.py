@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy.special import chdtrc, fdtrc
 from scipy.ndimage import uniform_filter1d
 
 # The angular acceleration is a derivative of a noisy rate. Averaged over this span its noise shrinks
@@ -125,8 +125,8 @@ def _wald_p_value(r: np.ndarray, cov: np.ndarray, clusters: int) -> float:
     flags a tenth of a millimetre on a rig without a lever arm."""
     wald = float(r @ np.linalg.solve(cov, r))
     if clusters < 2:
-        return float(stats.chi2.sf(wald, 3))
-    return float(stats.f.sf(wald / 3.0, 3, clusters - 1))
+        return float(chdtrc(3, wald))
+    return float(fdtrc(3, clusters - 1, wald / 3.0))
 
 
 def _width(t: np.ndarray, span_s: float) -> int:

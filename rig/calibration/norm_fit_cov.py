@@ -18,7 +18,7 @@ estimate over s is t-distributed, not normal.
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy.special import stdtrit
 
 from rig.calibration.jackknife import one_step_deletions, scatter_to_stated
 
@@ -43,7 +43,7 @@ def norm_fit_covariance(chunks: list[np.ndarray], B: np.ndarray, H: np.ndarray, 
     noise = np.mean([uh @ np.cov(c, rowvar=False) @ uh / len(c) for uh, c in zip(uH, chunks)])
     dof = len(chunks) - J.shape[1]
     residual = float(r @ r / dof) if dof > 0 else np.inf
-    factor = float(stats.t.isf(OUTSIDE_ONE_SIGMA / 2, dof)) ** 2 if dof > 0 else np.inf       # t_{dof, 0.8413}^2
+    factor = float(stdtrit(dof, 1.0 - OUTSIDE_ONE_SIGMA / 2)) ** 2 if dof > 0 else np.inf       # t_{dof, 0.8413}^2
     s2 = max(factor * residual, float(noise))
     scale = np.linalg.norm(J, axis=0)             # B's columns ~ H, H's ~ counts: (J^T J)^-1 unscaled loses all digits
     _, sv, Vt = np.linalg.svd(J / scale, full_matrices=False)

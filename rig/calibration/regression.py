@@ -5,7 +5,7 @@ one into its model (`rig.calibration.g_sensitivity`)."""
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy.special import fdtrc
 
 
 def nested_f(X_full: np.ndarray, X_red: np.ndarray, y: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -20,7 +20,7 @@ def nested_f(X_full: np.ndarray, X_red: np.ndarray, y: np.ndarray) -> tuple[floa
     if dof <= 0 or rss_full <= 0:
         return 1.0, coef, np.linalg.pinv(X_full.T @ X_full)
     F = ((rss_red - rss_full) / q) / (rss_full / dof)
-    return float(stats.f.sf(F, q, dof)), coef, np.linalg.pinv(X_full.T @ X_full)
+    return float(fdtrc(q, dof, F)), coef, np.linalg.pinv(X_full.T @ X_full)
 
 
 def resvar(X: np.ndarray, y: np.ndarray) -> np.ndarray:

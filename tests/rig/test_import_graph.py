@@ -25,6 +25,8 @@ LAZY_ALLOWED = {
                                  "naming the extra when it is missing",
     ("rig.attitude.peers", "ahrs.filters"): "a peer's filter, loaded only when the comparison with it is asked for",
     ("rig.noise.allan", "allantools"): "start-up: allantools only when an Allan deviation is computed",
+    ("rig.calibration.gyro", "filterpy.kalman"): "start-up: filterpy loads scipy.stats, about a second, which only the "
+                                                 "turntable gyro's UKF uses; every calibration imports the module",
     ("rig.noise.statistics", "scipy.signal"): "start-up: scipy.signal only for a spectrum",
     ("rig.discrepancy.plots", "matplotlib"): "start-up: matplotlib only when plots are written",
     ("rig.discrepancy.plots", "matplotlib.pyplot"): "start-up: matplotlib only when plots are written",
