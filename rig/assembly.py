@@ -194,7 +194,7 @@ def _open(what: str, opener: Callable[[], Any]) -> Any:
     except FileNotFoundError:
         raise HardwareUnavailable(f"{what}: no such device; enable the bus (e.g. raspi-config), set [chips] "
                                   f"i2c_bus / spi_bus, or emulate the parts on it ([sim] chips = \"fake\" or "
-                                  f"--sim)") from None
+                                  f"rig calibrate --sim)") from None
     except PermissionError:
         raise HardwareUnavailable(f"{what}: permission denied; add the user to the i2c/spi group") from None
     except ImportError as e:

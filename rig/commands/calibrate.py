@@ -274,8 +274,8 @@ def mirrored(out: Path, store: str | None):
 
     if not is_database_url(store):
         if not Path(out).resolve().is_relative_to(Path(store).resolve()):
-            raise CommandError(f"--store {store}: a folder store holds session folders; give --out inside it "
-                               f"(e.g. --out {Path(store) / Path(out).name})", Exit.BAD_INPUT)
+            raise CommandError(f"--store {store}: a folder store holds session folders, and {out} is not inside it "
+                               f"(e.g. {Path(store) / Path(out).name})", Exit.BAD_INPUT)
         yield
         return
     try:
@@ -330,7 +330,8 @@ def _config(path, orientations) -> RigConfig:
               help="Mirror the session into the lab's postgresql:// store as it runs (as calibrate --store).")
 @click.option("--no-progress", is_flag=True)
 @click.option("--plots/--no-plots", default=None,
-              help="Draw the report's figures after the result is written (default: on a real rig, not with --sim).")
+              help="Draw the report's figures after the result is written (default: on a real rig, not on the "
+                   "simulated one).")
 def resume(session, method, store, no_progress, plots):
     """Finish an interrupted session: hold again at its last recorded orientation, record the rest, calibrate.
 

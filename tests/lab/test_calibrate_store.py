@@ -43,5 +43,5 @@ def test_the_store_from_the_toml_unreachable_then_pushed(tmp_path, pg_url):
 def test_a_folder_store_wants_the_session_inside_it(tmp_path):
     done = rig("calibrate", *FAST, "--store", tmp_path / "lab", "--out", tmp_path / "elsewhere")
     no_traceback(done)
-    assert done.returncode == 2 and "give --out inside it" in done.stderr
+    assert done.returncode == 2 and "is not inside it" in done.stderr
     assert not (tmp_path / "elsewhere").exists()

@@ -44,10 +44,6 @@ TO_FIX_ELSEWHERE = {
                                                                    "--plots; repeatability has none",
     ("validate", "rig.report.calibration_report", "--plots"): "the report says figures are drawn on demand with "
                                                               "--plots; validate has --no-plots only",
-    ("resume", "rig.assembly", "--sim"): "a missing bus on resume advises --sim, which resume does not take",
-    ("resume", "rig.commands.calibrate", "--out"): "`rig resume --store FOLDER` is told to give --out inside it "
-                                                   "(mirrored); resume has no --out",
-    ("resume", "rig.commands.calibrate", "--sim"): "resume's --plots help says 'not with --sim' (resume takes none)",
 }
 
 
