@@ -8,11 +8,12 @@ test_mag_calibration.py` say how it was run): drop the first `Initialization tim
 the mean of the rest off (or, in the version that wrote the filtered log's result, a least-squares sphere's
 centre), then repeatedly fit A_k, B_k by linear least squares so that A_k m + B_k is nearest the
 unit vector along m, apply it, and stop when the cost falls by less than `tol` relatively (1e-4 in its test);
-the product of the steps, composed with the mean, is `u = A m + b`, on the unit sphere.
+the product of the steps, composed with the centre taken off, is `u = A m + b`, on the unit sphere.
 
 Usage: python benchmarks/peer_dorveaux_qmc5883l.py
   prints the benchmark JSON: per log, the reproduced parameters, the largest difference from the authors'
-  published A and b (relative to their largest element), and the relative field-norm scatter each gives on the samples after the rest.
+  published A and b (relative to their largest element), and the relative field-norm scatter each gives on the
+  samples after the rest.
 """
 
 from __future__ import annotations
