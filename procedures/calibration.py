@@ -24,25 +24,21 @@ from rig.schedule import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles
 from rig.clock import Clock
+from rig.config import ScheduleConfig, TurntableConfig
 from rig.errors import RigError
 from rig.rotations import TableGeometry, quat_from_matrix
 
 Progress = Callable[[int, int, str], None]
 
 
-@dataclass
+@dataclass(frozen=True)
 class MotionSettings:
-    speed_dps: float = 60.0
-    accel_dps2: float = 120.0
-    tolerance_deg: float = 0.01
-    settle_s: float = 0.3
-    poll_every: int = 10
-    hold_s: float = 5.0
-    rate_hz: float = 100.0
-    mag_every: int = 2
-    max_hold_attempts: int = 3
-    watchdog_ms: int = 2000
-    sequential: HoldTarget | None = None     # sequential holds: end each when its means are as good as planned
+    """How the table moves and each hold is recorded: the configuration's [turntable] and [schedule] as they are,
+    and, for sequential holds, what ends each (`procedures.hold_quality.HoldTarget`)."""
+
+    table: TurntableConfig
+    schedule: ScheduleConfig
+    sequential: HoldTarget | None = None
 
 
 HOLD_POLL_S = 0.5   # encoder reads during a hold: within any sane comms watchdog, cheap on the bus
@@ -56,15 +52,15 @@ class HoldFailed(RigError, RuntimeError):
 def arm_table(table: Table, m: MotionSettings) -> None:
     """Enable the servos with the table's comms watchdog armed: if this host dies mid-session, the table
     stops by itself within `watchdog_ms` (the rig polls well inside that; make_safe disarms it)."""
-    if m.watchdog_ms:
-        table.set_watchdog(int(m.watchdog_ms))
+    if m.table.watchdog_ms:
+        table.set_watchdog(int(m.table.watchdog_ms))
     table.enable()
 
 
 def position_table(table: Table, clock: Clock, target: Orientation, m: MotionSettings) -> None:
     """An unrecorded move (to the start, or back to the last hold on resume)."""
-    table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,
-                  tolerance_deg=m.tolerance_deg, settle_s=m.settle_s)
+    table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.table.speed_dps, accel_dps2=m.table.accel_dps2,
+                  tolerance_deg=m.table.tolerance_deg, settle_s=m.table.settle_s)
 
 
 def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule: list[Orientation],
@@ -82,7 +78,7 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     if progress:
         progress(start_step, n, "positioning")
     position_table(table, clock, schedule[start_step], m)
-    sampler = Sampler(board, clock, m.rate_hz, m.mag_every, session_t0=session_t0)
+    sampler = Sampler(board, clock, m.schedule.rate_hz, m.schedule.mag_every, session_t0=session_t0)
     sampler.align_to("gyro")
     j, first, tries = start_step, start_step, {}
     at = None       # the encoder angles read last, when the table has not moved since (a step's end: its start)
@@ -93,7 +89,7 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
                 if progress:
                     progress(j, n, "move")
                 at = _record_move(table, sampler, store, geometry, schedule[j], j - 1, m,
-                                  strict=attempt < m.max_hold_attempts, start_deg=at)
+                                  strict=attempt < m.schedule.max_hold_attempts, start_deg=at)
             if progress:
                 progress(j, n, "hold")
             at = _record_hold(table, sampler, board, store, geometry, schedule[j], j, m, attempt, start_deg=at)
@@ -101,7 +97,7 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
         except StepSpoiled as spoiled:
             tries[j] = attempt
             at = None
-            if attempt >= m.max_hold_attempts:
+            if attempt >= m.schedule.max_hold_attempts:
                 raise spoiled.final(j, attempt) from None
             j = _redo(table, store, sampler, schedule, j, first, spoiled, m)
             first = j
@@ -184,8 +180,9 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
         pos.append(tuple(st.position_deg for st in ordered))
         vel.append(tuple(st.velocity_dps for st in ordered))
 
-    final = table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.speed_dps, accel_dps2=m.accel_dps2,
-                          tolerance_deg=m.tolerance_deg, settle_s=m.settle_s, on_poll=log_polls,
+    final = table.move_to(target.outer_deg, target.inner_deg, speed_dps=m.table.speed_dps,
+                          accel_dps2=m.table.accel_dps2, tolerance_deg=m.table.tolerance_deg,
+                          settle_s=m.table.settle_s, on_poll=log_polls,
                           wait=sampler.run_for)
     rec = sampler.take()
     t_pos.append(sampler.stamp(sampler.clock.now()))
@@ -193,7 +190,7 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
     vel.append((0.0, 0.0))
     table_deg = interpolate_angles(rec.t, t_pos, pos, vel)
     log_read_errors(store, sampler)
-    hole = gyro_hole(rec, table_deg, 1.0 / m.rate_hz, m.tolerance_deg)
+    hole = gyro_hole(rec, table_deg, 1.0 / m.schedule.rate_hz, m.table.tolerance_deg)
     if strict and hole is not None:
         raise StepSpoiled(f"the gyro has no samples for {hole[0]:.3f} s of the move into hold {step + 1} while the "
                           f"table turned {hole[1]:.2f} deg (read errors or a retried table request)")
@@ -232,14 +229,14 @@ def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geo
     """Record one attempt at hold `step`; stored unless the chips lost their configuration or the hold moved.
     `start_deg`: the angles the move into it read as it ended, else read here. Returns the last angles read."""
     sequential = m.sequential is not None and bool(m.sequential.target)   # the first hold of a run: hold_s
-    ticks = int(round((m.sequential.max_s if sequential else m.hold_s) * m.rate_hz))
-    chunk = max(int(round(HOLD_POLL_S * m.rate_hz)), 1)
-    every = max(int(round(SEQUENTIAL_CHECK_S * m.rate_hz)), 1) if sequential else chunk
+    ticks = int(round((m.sequential.max_s if sequential else m.schedule.hold_s) * m.schedule.rate_hz))
+    chunk = max(int(round(HOLD_POLL_S * m.schedule.rate_hz)), 1)
+    every = max(int(round(SEQUENTIAL_CHECK_S * m.schedule.rate_hz)), 1) if sequential else chunk
     readings = [table.positions() if start_deg is None else start_deg]
     for k in range(every, ticks + every, every):
         done = min(k, ticks)
         sampler.run(done - (k - every))
-        ended = done >= ticks or (sequential and m.sequential.done(sampler.so_far(), done / m.rate_hz))
+        ended = done >= ticks or (sequential and m.sequential.done(sampler.so_far(), done / m.schedule.rate_hz))
         if ended or done % chunk == 0:
             readings.append(table.positions())  # encoder log, and a keep-alive for the table's watchdog
         if ended:
@@ -247,9 +244,9 @@ def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geo
     rec = sampler.take()
     log_read_errors(store, sampler)
     check_configuration(board)
-    moved = hold_has_motion(rec, rate_hz=m.rate_hz)
+    moved = hold_has_motion(rec, rate_hz=m.schedule.rate_hz)
     drift = float(np.ptp(np.asarray(readings), axis=0).max())
-    if drift > m.tolerance_deg:
+    if drift > m.table.tolerance_deg:
         moved = f"encoders moved {drift:.4f} deg during the hold"
     if moved is not None:
         store.log_event("hold-repeated", f"hold {step} attempt {attempt}: {moved}", float(rec.t[-1]))

@@ -23,11 +23,8 @@ from rig.io.atomic import write_text_atomic
 
 
 def motion_settings(config: RigConfig) -> MotionSettings:
-    t, s = config.turntable, config.schedule
-    return MotionSettings(speed_dps=t.speed_dps, accel_dps2=t.accel_dps2, tolerance_deg=t.tolerance_deg,
-                          settle_s=t.settle_s, poll_every=t.poll_every, hold_s=s.hold_s, rate_hz=s.rate_hz,
-                          mag_every=s.mag_every, max_hold_attempts=s.max_hold_attempts, watchdog_ms=t.watchdog_ms,
-                          sequential=HoldTarget(s.hold_s, s.hold_min_s, s.hold_max_s or 3 * s.hold_s)
+    s = config.schedule
+    return MotionSettings(config.turntable, s, HoldTarget(s.hold_s, s.hold_min_s, s.hold_max_s or 3 * s.hold_s)
                           if s.sequential else None)
 
 
