@@ -52,6 +52,15 @@ def opened(store_url: str, **kw):
     return open_store(store_url, **kw)
 
 
+def say_skipped(store, data: dict | None = None) -> None:
+    """Name every folder or record the store left out of the answer, on stderr (and in the JSON)."""
+    skipped = dict(getattr(store, "skipped", {}) or {})
+    for reason in skipped.values():
+        click.echo(f"warning: skipped {reason}", err=True)
+    if data is not None and skipped:
+        data["skipped"] = [{"what": what, "reason": reason} for what, reason in skipped.items()]
+
+
 def write_json(path: Path | None, data: dict) -> None:
     if path is None:
         return
@@ -168,6 +177,7 @@ def units(store_url, json_out):
             store.close()
     data = {"units": [{"serial": u["serial"], "calibrations": u["calibrations"], "last_utc": iso(u["last_utc"]),
                        "sessions": u["sessions"], "board": u["board"]} for u in found]}
+    say_skipped(store, data)
     if not found:
         click.echo("no units in the store yet")
     for u in data["units"]:
@@ -197,6 +207,7 @@ def history(serial, store_url, json_out, plot):
             data = unit_history(store, serial)
         finally:
             store.close()
+    say_skipped(store, data)
     if not data["calibrations"]:
         click.echo(f"unit {serial}: no calibration stored yet")
     for entry in data["calibrations"]:
@@ -226,6 +237,7 @@ def compare_rigs(unit, store_url, json_out):
             data = compare(store, unit)
         finally:
             store.close()
+    say_skipped(store, data)
     if not data["rigs"]:
         raise CommandError(f"unit {unit!r} has no calibration in {store.describe()}", Exit.BAD_INPUT)
     for rig in data["rigs"]:
@@ -261,6 +273,7 @@ def pass_fail(store_url, where, json_out):
             data = table(store, filters)
         finally:
             store.close()
+    say_skipped(store, data)
     click.echo(f"{'day':<11} {'rig':<14} {'complete':>8} {'rejected':>8} {'failed':>6} {'aborted':>7} "
                f"{'running':>7}  passed")
     for r in data["rows"]:
