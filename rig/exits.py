@@ -146,3 +146,32 @@ class FiniteFloat(click.ParamType):
         if self.high is not None and (number > self.high or (self.high_open and number == self.high)):
             self.fail(f"{value} must be {'<' if self.high_open else '<='} {self.high:g}", param, ctx)
         return number
+
+
+def busy_port(host: str, port: int) -> str:
+    """Who holds a TCP port that cannot be bound ("in use by pid N (COMMAND)"), for a busy (4) message: the
+    listening socket's inode from /proc/net/tcp{,6}, then the process that has it open. Said plainly when it
+    cannot be found (another user's process, not Linux)."""
+    inodes = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            with open(table) as f:
+                next(f, None)
+                for line in f:
+                    fields = line.split()
+                    if len(fields) > 9 and fields[3] == "0A" and int(fields[1].rsplit(":", 1)[1], 16) == port:
+                        inodes.add(fields[9])
+        except (OSError, ValueError, IndexError):
+            continue
+    wanted = {f"socket:[{inode}]" for inode in inodes}
+    if wanted:
+        for pid in sorted(p for p in os.listdir("/proc") if p.isdigit()):
+            try:
+                fds = os.listdir(f"/proc/{pid}/fd")
+                if any(os.readlink(f"/proc/{pid}/fd/{fd}") in wanted for fd in fds):
+                    with open(f"/proc/{pid}/cmdline", "rb") as f:
+                        command = f.read().replace(b"\0", b" ").decode(errors="replace").strip()
+                    return f"port {port} is in use by pid {pid} ({command[:120]})"
+            except OSError:
+                continue
+    return f"port {port} is in use by another process"

@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 
 from rig.commands.lab import lab_errors, opened, store_option
-from rig.exits import CommandError, Exit
+from rig.exits import CommandError, Exit, busy_port
 
 
 def is_loopback(host: str) -> bool:
@@ -75,7 +75,7 @@ def serve(store_url, host, port, users_file, tls_cert, tls_key):
         except OSError as exc:
             sock.close()
             if exc.errno == errno.EADDRINUSE:
-                raise CommandError(f"{host}:{port} is in use by another process: choose another --port",
+                raise CommandError(f"{host}:{port}: {busy_port(host, port)}: choose another --port",
                                    Exit.BUSY) from None
             raise CommandError(f"{host}:{port} cannot be used ({exc.strerror})", Exit.BAD_INPUT) from None
         scheme = "https" if tls_cert is not None else "http"
