@@ -149,11 +149,16 @@ def _follow(session_dir: Path, store_url: str, rig_name: str | None, wait_s: flo
     from rig.lab.mirror import SessionMirror
     from rig.lab.pg import check_url
 
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
     check_url(store_url)
     mirror = SessionMirror(session_dir, store_url, rig=rig_name, wait_down_s=wait_s)
+    stop = threading.Event()
+
+    def stop_now(*_) -> None:                # a last push if the store is there; no more waiting for it
+        mirror.wait_down_s = 0.0
+        stop.set()
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, stop_now)
     click.echo(f"following {session_dir} into the store (Ctrl-C stops after a last push)", err=True)
     outcome = mirror.run(stop)
     if outcome.complete:

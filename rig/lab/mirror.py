@@ -37,7 +37,7 @@ from rig.store.schema import SESSION_FILE
 POLL_S = 0.2                   # how often the session file is looked at (local, no network)
 FIRST_BACKOFF_S = 1.0          # the first wait after a failed connection
 MAX_BACKOFF_S = 30.0           # the longest wait between two connection attempts
-MIN_ATTEMPT_GAP_S = 1.0        # never two connection attempts of one mirror closer than this
+MIN_ATTEMPT_GAP_S = 1.05       # never two connection attempts of one mirror closer (1 s, with margin for jitter)
 FINAL_PUSH_S = 15.0            # after the session ends, how long a reachable store is given to take the rest
 WAIT_DOWN_S = 0.0              # after the session ends, how long a store that is away is waited for
 
@@ -109,9 +109,10 @@ class MirrorOutcome:
 class SessionMirror:
     """Follows one session folder into the store until the session ends (or `stop` is set).
 
-    After the session ends (or `stop` is set) the mirror pushes what is left: for at most `final_push_s` while
-    the store takes it, and waits at most `wait_down_s` for a store that is away (still on the back-off's
-    schedule) before it says what is left for `rig push`."""
+    After the session ends (its status final, or `stop` set) the mirror pushes what is left: for at most
+    `final_push_s` while the store takes it, and waits at most `wait_down_s` for a store that is away (still
+    on the back-off's schedule) before it says what is left for `rig push`; setting `wait_down_s` to 0 and
+    `stop` ends a wait at once (Ctrl-C)."""
 
     def __init__(self, folder: str | Path, url: str, *, rig: str | None = None, poll_s: float = POLL_S,
                  echo: Callable[[str], None] = stderr, final_push_s: float = FINAL_PUSH_S,
@@ -145,6 +146,8 @@ class SessionMirror:
                         continue
                 try:
                     ids, status = local.last_ids(), local.metadata().get("status", "")
+                    if ended is None and status in identity.TERMINAL:
+                        ended = now                      # the session is over: the store is waited for no longer
                     if conn is None:
                         wait = self.backoff.ready_in()
                         if ended is not None and down and now + wait > ended + self.wait_down_s:

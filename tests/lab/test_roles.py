@@ -112,3 +112,51 @@ def test_the_printed_sql_runs_twice_in_psql_and_is_the_same_rules(tmp_path, pg_s
     policies = pg_server.sql("SELECT tablename, policyname FROM pg_policies ORDER BY 1, 2", db=fresh.rsplit("/", 1)[1])
     assert ("samples", "rig_insert") in policies and ("sessions", "rig_update") in policies
     assert pg_server.sql("SELECT rig FROM rig_logins WHERE login = 'rig_r9'", db=fresh.rsplit("/", 1)[1]) == [("r9",)]
+
+
+def test_tls_is_required_and_verified_and_a_refused_plain_connection_is_not_retried(tmp_path, monkeypatch):
+    """A server that takes the lab's logins over TLS only: a rig with sslmode=verify-full and the lab's CA
+    pushes; one without TLS is refused by pg_hba.conf once, in one line (exit 2), never retried."""
+    import os
+    import pwd
+
+    from .pgserver import PgServer
+    from .proxy import CountingProxy
+
+    server = PgServer()
+    try:
+        cert, key = server.root / "server.crt", server.root / "server.key"
+        subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2", "-subj",
+                        "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1", "-keyout", str(key), "-out",
+                        str(cert)], check=True, capture_output=True)
+        key.chmod(0o600)
+        if os.geteuid() == 0:
+            user = pwd.getpwnam("postgres")
+            for path in (cert, key):
+                os.chown(path, user.pw_uid, user.pw_gid)
+        server.write_hba("hostssl all rig 127.0.0.1/32 trust\nhostssl all all 127.0.0.1/32 scram-sha-256\n"
+                         "hostnossl all all 127.0.0.1/32 reject\n")
+        server.start("ssl=on", f"ssl_cert_file={cert}", f"ssl_key_file={key}")
+        admin = server.createdb("lab") + f"?sslmode=verify-full&sslrootcert={cert}"
+        assert rig("lab", "migrate", "--store", admin, "--rig", "r1=rig_r1").returncode == 0
+        server.sql("ALTER ROLE rig_r1 PASSWORD 'r1-password-long'")
+        passfile = tmp_path / "pgpass"
+        passfile.write_text(f"127.0.0.1:*:lab:rig_r1:r1-password-long\n")
+        passfile.chmod(0o600)
+        monkeypatch.setenv("PGPASSFILE", str(passfile))
+        folder, = make_archive(tmp_path, [dict(unit="U-TLS", rig="r1", start_utc="2026-04-05T09:00:00.000Z")])
+        proxy = CountingProxy(server.port)
+        try:
+            plain = rig("push", folder, "--store", proxy.url("lab", "rig_r1") + "?sslmode=disable", "--follow")
+            no_traceback(plain)
+            assert plain.returncode == 2 and "no encryption" in plain.stderr, plain.stderr
+            assert len(proxy.attempts) == 1
+        finally:
+            proxy.close()
+        verified = rig("push", folder, "--store",
+                       f"postgresql://rig_r1@127.0.0.1:{server.port}/lab?sslmode=verify-full&sslrootcert={cert}")
+        assert verified.returncode == 0 and "pushed 12 holds" in verified.stdout, verified.stderr
+        with psycopg.connect(admin) as conn:
+            assert conn.execute("SELECT count(*) FROM sessions").fetchone()[0] == 1
+    finally:
+        server.destroy()
