@@ -116,7 +116,7 @@ class PgStore:
             where = f"{redact(self.url)} session {n} ({src} calibration)"
             try:
                 records.append(CalibrationRecord(n, k, st, rig, status, src, load_document(doc, where)))
-            except StoreInputError as exc:          # stored before pushes were checked: left out, named
+            except StoreInputError as exc:          # not a JSON document: left out of the answer, named
                 self.skipped[where] = str(exc)
         return records
 

@@ -196,10 +196,14 @@ def _(tmp):
         time.sleep(0.5)
         done = rig("calibrate", "--sim", "--orientations", "9", "--no-progress", "--out", out)
         exported = rig("export", out, "--to", tmp / "e")
+        calibrated = rig("calibrate", "--from", out, "--out", tmp / "c")
+        into_it = rig("calibrate", "--from", tmp / "e", "--out", out)
         first.proc.wait(timeout=300)
     assert done.returncode == 4 and f"pid {first.proc.pid}" in done.stderr, done.stderr
     assert "rig resume" not in done.stderr
     assert exported.returncode == 0 and "still being recorded" in exported.stderr, exported.stderr
+    assert "still being recorded" in calibrated.stderr and "not the whole session" in calibrated.stderr
+    assert into_it.returncode == 4 and "being recorded there" in into_it.stderr, into_it.stderr
     assert first.proc.returncode == 0 and status(out) == "complete"
 
 
