@@ -132,7 +132,11 @@ class SessionOrchestrator:
             return outcome or self._finish(store, len(schedule))
 
     def _refuse_existing(self) -> None:
+        """A folder that holds a session already: busy (4, the holder named) while another process runs it,
+        else refused (2) pointing at `rig resume`, which then works."""
         if (self.folder / SESSION_FILE).exists():
+            with session_lock(self.folder):
+                pass
             raise NotASession(f"{self.folder}: a session already exists here; finish it with `rig resume "
                               f"{self.folder}` or choose another --out")
 

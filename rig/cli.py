@@ -58,6 +58,8 @@ SUBCOMMANDS: dict[str, tuple[str, str] | str] = {
                  "Sessions by day and rig: complete (PASS), rejected (FAIL), failed, aborted, running."),
     "serve": ("rig.commands.lab_web:serve",
              "Serve the lab's web page: sessions with live progress, reports, unit histories, rig comparison."),
+    "lab": ("rig.commands.lab_admin:lab",
+            "Set up the lab's store and page: roles and their SQL, tables, users of the page."),
     "batch": ("rig.commands.lab_batch:batch",
              "Re-run calibration or the discrepancy analysis over stored sessions; results go back to the store."),
 }

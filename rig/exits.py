@@ -1,14 +1,6 @@
-"""The exit codes of every `rig` command (the table in README, "Exit codes"), how errors map onto them, and
-the option types that refuse bad numbers at the command line.
-
-    0    done; a session complete with verdict PASS (or no limits to check)
-    1    done, but a check failed: the calibration's verdict is FAIL (`rig plan`: the schedule is blind)
-    2    bad input: an option, a configuration, a data or session folder; nothing was changed
-    3    failed: a fault of the hardware, the link, the data or the disk; what was recorded is kept
-    4    busy: the session folder or the turntable is in use by another process (named)
-    70   internal error: a bug; one line on the terminal, the traceback in a file
-    128+N  aborted by signal N: 129 SIGHUP, 130 SIGINT (Ctrl-C), 143 SIGTERM; the table stopped and disabled
-"""
+"""The exit codes of every `rig` command (`EXIT_TABLE`, the table in README, "Exit codes"), how errors map onto
+them, and the option types that refuse bad numbers at the command line. `tests/faults/test_exit_table.py` makes
+every code of the table with a real command and checks the README lists the same codes."""
 
 from __future__ import annotations
 
@@ -36,6 +28,24 @@ class Exit(enum.IntEnum):
     FAILED = 3
     BUSY = 4
     INTERNAL = 70
+
+
+# (codes, meaning, the session's stored status): the one table every command's exit follows
+EXIT_TABLE = (
+    ((0,), "done; a session calibrated with verdict PASS (or no limits configured)", "complete"),
+    ((1,), "done, but a check did not pass: the calibration's verdict is FAIL (the failing limits printed and in "
+           "report.md); `rig plan`: an axis is not excited; `rig discrepancy`: a sensor could not be analysed",
+     "rejected"),
+    ((2,), "bad input: an option, a configuration, a value the table refuses (beyond its limits), a folder that is "
+           "not a session or already holds what would be replaced (without --force), a file that breaks its "
+           "format, credentials or a role the store refuses; nothing was changed", "unchanged"),
+    ((3,), "failed: a fault of the hardware, the turntable link, the data, the disk or the store's server; what "
+           "was recorded is kept and `rig resume` (or `rig push`) continues", "failed"),
+    ((4,), "busy: the session folder, the turntable or a TCP port is in use by another process, named", "unchanged"),
+    ((70,), "internal error (a bug): one line naming the file its traceback was written to", "failed"),
+    ((129, 130, 143), "aborted by SIGHUP, SIGINT (Ctrl-C), SIGTERM (128 + the signal); the table stopped and "
+                      "disabled", "aborted"),
+)
 
 
 STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
@@ -146,3 +156,32 @@ class FiniteFloat(click.ParamType):
         if self.high is not None and (number > self.high or (self.high_open and number == self.high)):
             self.fail(f"{value} must be {'<' if self.high_open else '<='} {self.high:g}", param, ctx)
         return number
+
+
+def busy_port(host: str, port: int) -> str:
+    """Who holds a TCP port that cannot be bound ("in use by pid N (COMMAND)"), for a busy (4) message: the
+    listening socket's inode from /proc/net/tcp{,6}, then the process that has it open. Said plainly when it
+    cannot be found (another user's process, not Linux)."""
+    inodes = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            with open(table) as f:
+                next(f, None)
+                for line in f:
+                    fields = line.split()
+                    if len(fields) > 9 and fields[3] == "0A" and int(fields[1].rsplit(":", 1)[1], 16) == port:
+                        inodes.add(fields[9])
+        except (OSError, ValueError, IndexError):
+            continue
+    wanted = {f"socket:[{inode}]" for inode in inodes}
+    if wanted:
+        for pid in sorted(p for p in os.listdir("/proc") if p.isdigit()):
+            try:
+                fds = os.listdir(f"/proc/{pid}/fd")
+                if any(os.readlink(f"/proc/{pid}/fd/{fd}") in wanted for fd in fds):
+                    with open(f"/proc/{pid}/cmdline", "rb") as f:
+                        command = f.read().replace(b"\0", b" ").decode(errors="replace").strip()
+                    return f"port {port} is in use by pid {pid} ({command[:120]})"
+            except OSError:
+                continue
+    return f"port {port} is in use by another process"

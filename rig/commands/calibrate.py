@@ -190,6 +190,8 @@ def show_outcome(outcome, echo=click.echo) -> int:
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @click.option("--plots/--no-plots", default=None,
               help="Draw the report's figures after the result is written (default: on a real rig, not with --sim).")
+@click.option("--force", is_flag=True, help="With --from: replace a calibration.json already in --out (its "
+              "report.md is written again to match).")
 @click.option("--budget-s", type=FiniteFloat(1.0, 36000.0), default=None,
               help="Run the plan of `rig plan --budget-s`: the most accurate that fits this table time.")
 @click.option("--target-h-pct", type=FiniteFloat(0.0, 100.0, low_open=True), default=None,
@@ -197,7 +199,7 @@ def show_outcome(outcome, echo=click.echo) -> int:
 @click.option("--noise-from", type=click.Path(exists=True, file_okay=False), default=None,
               help="With --budget-s/--target-h-pct: the noise of a calibrated session of this unit.")
 def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_s, out, seed, time_scale, method,
-              orientations, gravity, settle_s, gyro_samples, holds_only, store, no_progress, plots, budget_s,
+              orientations, gravity, settle_s, gyro_samples, holds_only, store, no_progress, plots, force, budget_s,
               target_h_pct, noise_from):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if fmt != "imu_tk" and (units is not None or initial_rest_s is not None):
@@ -211,14 +213,21 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_
 
         if fmt == "imu_tk" and not (accel and gyro):
             raise click.UsageError("--format imu_tk needs --accel FILE and --gyro FILE")
-        from rig.commands.sessions import is_rig_session, session_kind
+        from rig.commands.sessions import is_rig_session, read_any_session, session_kind
         from rig.errors import RigError
         from rig.recording_kinds import refuse_unless_taken
+
+        from rig.commands.export import recording_holder
+        from rig.report.recalibrated import refuse_overwrite, report_again
 
         try:
             kind = session_kind(Path(from_dir)) if fmt == "interchange" else None
             if kind is not None:
                 refuse_unless_taken("calibrate", *kind, from_dir)
+            if recording_holder(out) is not None:
+                raise CommandError(f"--out {out}: a session is being recorded there by {recording_holder(out)}",
+                                   Exit.BUSY)
+            refuse_overwrite(out, force)
             if fmt == "interchange" and is_rig_session(from_dir):
                 if click.get_current_context().get_parameter_source("settle_s").name == "DEFAULT":
                     settle_s = 0.0                  # the rig records a hold once the table has settled
@@ -230,6 +239,10 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_
                                         echo=click.echo, move_samples=not holds_only,
                                         units=sensor_units(units, ["accel", "gyro"]) if fmt == "imu_tk" else None,
                                         initial_rest_s=initial_rest_s)
+            said = report_again(out, read_any_session(Path(from_dir)) if fmt == "interchange" else None,
+                                result.sensors) if force else None
+            if said:
+                click.echo(said)
         except (RigError, OSError) as e:
             raise command_error(e) from None
         except (ValueError, ArithmeticError) as e:     # numbers the data cannot support (numpy's LinAlgError too)
@@ -290,11 +303,16 @@ def mirrored(out: Path, store: str | None):
 def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: float, gravity: float | None,
                           gyro_samples: str, move_samples: bool = True) -> None:
     """`calibrate --from` on the rig's own session folder (no export needed): the same pipeline and writer."""
+    from rig.commands.export import unfinished
     from rig.commands.sessions import read_any_session
     from rig.pipeline import calibrate_session
     from rig.pipeline.writing import write_session_calibration
+    from rig.report.recalibrated import report_again
 
     session = read_any_session(folder)
+    warning = unfinished(folder, session.meta, "this calibration", len(session.hold_rows()))
+    if warning:
+        click.echo(warning, err=True)
     if gravity is not None:
         session.gravity = float(gravity)
     result = calibrate_session(session, method=method, settle_s=settle_s, gyro_samples=gyro_samples,
@@ -311,6 +329,9 @@ def _calibrate_rig_folder(folder: Path, out: Path, *, method: str, settle_s: flo
     for w in result.warnings:
         click.echo(f"warning: {w}")
     click.echo(f"wrote {path}")
+    said = report_again(out, session, result.sensors)
+    if said:
+        click.echo(said)
 
 
 def _config(path, orientations) -> RigConfig:

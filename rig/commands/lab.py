@@ -15,7 +15,7 @@ from pathlib import Path
 
 import click
 
-from rig.exits import CommandError, Exit, code_for, command_error
+from rig.exits import CommandError, Exit, FiniteFloat, code_for, command_error
 
 LAB_MODULES = ("psycopg", "psycopg_pool", "starlette", "uvicorn", "jinja2", "plotly", "dask", "distributed")
 STORE_HELP = "postgresql://USER@HOST:PORT/DB, or a folder of rig session folders ($RIG_STORE)."
@@ -52,6 +52,15 @@ def opened(store_url: str, **kw):
     return open_store(store_url, **kw)
 
 
+def say_skipped(store, data: dict | None = None) -> None:
+    """Name every folder or record the store left out of the answer, on stderr (and in the JSON)."""
+    skipped = dict(getattr(store, "skipped", {}) or {})
+    for reason in skipped.values():
+        click.echo(f"warning: skipped {reason}", err=True)
+    if data is not None and skipped:
+        data["skipped"] = [{"what": what, "reason": reason} for what, reason in skipped.items()]
+
+
 def write_json(path: Path | None, data: dict) -> None:
     if path is None:
         return
@@ -70,7 +79,10 @@ def write_json(path: Path | None, data: dict) -> None:
 @click.option("--rig", "rig_name", default=None, help="The rig's name in the store (default: the session's "
               "metadata `rig`, else the host that recorded it).")
 @click.option("--follow", is_flag=True, help="Keep pushing while the session runs, until it ends (a live mirror).")
-def push(session_dir, root, store_url, rig_name, follow):
+@click.option("--wait-s", "wait_s", type=FiniteFloat(0.0), default=600.0, show_default=True,
+              help="With --follow: after the session ends, how long a store that is away is waited for (tried "
+                   "with a back-off of 1 to 30 s).")
+def push(session_dir, root, store_url, rig_name, follow, wait_s):
     """Push session folders to the central store: what it lacks, once (pushing again adds nothing)."""
     from rig.lab.errors import is_database_url
 
@@ -83,7 +95,7 @@ def push(session_dir, root, store_url, rig_name, follow):
                            "where they lie (copy the folder into it instead)", Exit.BAD_INPUT)
     if follow:
         with lab_errors():
-            sys.exit(_follow(session_dir, store_url, rig_name))
+            sys.exit(_follow(session_dir, store_url, rig_name, wait_s))
     with lab_errors():
         from rig.lab.local import session_folders
 
@@ -96,7 +108,7 @@ def push(session_dir, root, store_url, rig_name, follow):
 
 def _push_all(folders: list[Path], store_url: str, rig_name: str | None) -> int:
     from rig.errors import RigError
-    from rig.lab.errors import StoreError
+    from rig.lab.errors import StoreDenied, StoreError
     from rig.lab.mirror import push_folder
     from rig.lab.pg import connect
 
@@ -110,9 +122,13 @@ def _push_all(folders: list[Path], store_url: str, rig_name: str | None) -> int:
         for folder in folders:
             try:
                 result = push_folder(folder, store_url, rig=rig_name, conn=conn)
+            except StoreDenied as exc:         # this folder only: the role may not push it
+                click.echo(f"Error: {exc}", err=True)
+                code = code if code != Exit.OK else code_for(exc)
+                continue
             except StoreError as exc:          # the database itself: nothing more can be pushed now
                 raise CommandError(f"{exc}; the session folders are unchanged: push again when the store is "
-                                   "back (what was pushed is kept, nothing is pushed twice)") from None
+                                   "back (what was pushed is kept, nothing is pushed twice)", code_for(exc)) from None
             except RigError as exc:            # this folder only (refused, unreadable): say why, go on
                 click.echo(f"Error: {exc}", err=True)
                 code = code if code != Exit.OK else code_for(exc)
@@ -126,21 +142,28 @@ def _push_all(folders: list[Path], store_url: str, rig_name: str | None) -> int:
     return code
 
 
-def _follow(session_dir: Path, store_url: str, rig_name: str | None) -> int:
+def _follow(session_dir: Path, store_url: str, rig_name: str | None, wait_s: float) -> int:
     import signal
     import threading
 
     from rig.lab.mirror import SessionMirror
+    from rig.lab.pg import check_url
 
+    check_url(store_url)
+    mirror = SessionMirror(session_dir, store_url, rig=rig_name, wait_down_s=wait_s)
     stop = threading.Event()
+
+    def stop_now(*_) -> None:                # a last push if the store is there; no more waiting for it
+        mirror.wait_down_s = 0.0
+        stop.set()
+
     for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
-    mirror = SessionMirror(session_dir, store_url, rig=rig_name)
+        signal.signal(sig, stop_now)
     click.echo(f"following {session_dir} into the store (Ctrl-C stops after a last push)", err=True)
     outcome = mirror.run(stop)
     if outcome.complete:
         return Exit.OK
-    return Exit.FAILED
+    return outcome.code or Exit.FAILED
 
 
 # -- questions -------------------------------------------------------------------------------------
@@ -159,6 +182,7 @@ def units(store_url, json_out):
             store.close()
     data = {"units": [{"serial": u["serial"], "calibrations": u["calibrations"], "last_utc": iso(u["last_utc"]),
                        "sessions": u["sessions"], "board": u["board"]} for u in found]}
+    say_skipped(store, data)
     if not found:
         click.echo("no units in the store yet")
     for u in data["units"]:
@@ -188,6 +212,7 @@ def history(serial, store_url, json_out, plot):
             data = unit_history(store, serial)
         finally:
             store.close()
+    say_skipped(store, data)
     if not data["calibrations"]:
         click.echo(f"unit {serial}: no calibration stored yet")
     for entry in data["calibrations"]:
@@ -217,6 +242,7 @@ def compare_rigs(unit, store_url, json_out):
             data = compare(store, unit)
         finally:
             store.close()
+    say_skipped(store, data)
     if not data["rigs"]:
         raise CommandError(f"unit {unit!r} has no calibration in {store.describe()}", Exit.BAD_INPUT)
     for rig in data["rigs"]:
@@ -252,6 +278,7 @@ def pass_fail(store_url, where, json_out):
             data = table(store, filters)
         finally:
             store.close()
+    say_skipped(store, data)
     click.echo(f"{'day':<11} {'rig':<14} {'complete':>8} {'rejected':>8} {'failed':>6} {'aborted':>7} "
                f"{'running':>7}  passed")
     for r in data["rows"]:

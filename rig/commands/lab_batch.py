@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from rig.commands.lab import json_option, lab_errors, opened, store_option, write_json
+from rig.commands.lab import json_option, lab_errors, opened, say_skipped, store_option, write_json
 from rig.exits import CommandError, Exit, stop_signals_raise
 
 
@@ -38,6 +38,7 @@ def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
         store = opened(url, write=True)
         try:
             keys = store.select_keys(filters)
+            say_skipped(store)
             if not keys:
                 if not where or not store.select_keys(Filters.from_where(())):
                     raise CommandError(_no_session(store), Exit.BAD_INPUT)

@@ -13,6 +13,7 @@ import numpy as np
 
 from rig.errors import InputError, SessionFormatError
 from rig.io.columns import header_line_holding, numbered_columns, read_columns, read_header
+from rig.io.import_checks import check_rate, check_samples
 from rig.io.recording import STANDARD_GRAVITY, check_counts, recording_session, to_session_units
 from rig.session_data import SessionData
 
@@ -65,6 +66,7 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
             i = int(back[0]) + 1
             raise SessionFormatError(path, f"time {cols[time_column][i]:g} {time_unit} is not after the previous row's "
                                      f"{cols[time_column][i - 1]:g}", i + first, time_column)
+        check_rate(path, t, time_column, time_unit)
     else:
         t = np.arange(n) / float(rate_hz)
     raw = {s: np.column_stack([cols[c] for c in names]) for s, names in sensors.items()}
@@ -82,7 +84,9 @@ def import_csv(path: str | os.PathLike, sensors: dict[str, list[str]], *, units:
                                      names[int(np.argmax(empty[i]))])
     lines = np.arange(n) + first
     check_counts(raw, units, {s: (str(path), names, lines) for s, names in sensors.items()})
-    raw, kept = to_session_units(raw, units)
+    with np.errstate(over="ignore"):
+        raw, kept = to_session_units(raw, units)
+    check_samples(path, cols, sensors, units, raw, kept, first, temp_column)
     rate = rate_hz if rate_hz is not None else (float(1.0 / np.median(np.diff(t))) if n > 1 else None)
     return recording_session(t, raw, units=kept, gravity=gravity, field_uT=field_uT, sample_rate_hz=rate,
                              temp_c=cols[temp_column] if temp_column else None, source=str(path),

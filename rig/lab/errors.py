@@ -30,6 +30,12 @@ class NoLabTables(SchemaMismatch):
     """The database is reachable but nothing was ever pushed to it (a reader sees an empty store)."""
 
 
+class StoreDenied(StoreError, InputError):
+    """The database will not let these credentials in, or not do this (a wrong password, an unknown role or
+    database, a TLS requirement not met, a privilege the role lacks): permanent, never retried; the
+    credentials or the role are the user's to fix (exit 2)."""
+
+
 class PushRefused(InputError):
     """A session that conflicts with the one stored under the same identity (exit 2)."""
 
@@ -40,6 +46,11 @@ class UnitClaimed(Busy):
 
 class StoreInputError(InputError):
     """A store URL or folder, a filter or a name given by the user cannot be used."""
+
+
+class CorruptInput(StoreInputError):
+    """A file or record of a session breaks its published format (a truncated calibration.json, a damaged or
+    foreign session.sqlite): refused whole, named with the reason; nothing of it enters the store (exit 2)."""
 
 
 def redact(url: str) -> str:

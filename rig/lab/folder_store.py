@@ -1,7 +1,9 @@
 """A folder of SQLite sessions as a store: the same questions as the central store, without a server.
 
 Every session folder under the root counts (as `rig push --all ROOT` finds them). Each is read read-only
-and its summary cached until its files change. Batch results are written beside the session, in its `lab/`
+and its summary cached until its files change. A folder whose session file is damaged, foreign or breaks the
+layout (`rig.lab.validate.check_file`), or whose calibration breaks its format, is left out of the answers
+and named in `skipped` (folder -> reason), which every command and the page say. Batch results are written beside the session, in its `lab/`
 folder (`<kind>-<run>.json`, and `calibration-<run>.json` for a re-calibration); the session file itself is
 never touched.
 """
@@ -14,11 +16,13 @@ from collections import Counter
 from datetime import datetime, timezone
 from pathlib import Path
 
+from rig.errors import InputError
 from rig.io.atomic import write_text_atomic
-from rig.lab import identity, sessiondata
+from rig.io.calibration_json import read_calibration
+from rig.lab import identity, sessiondata, validate
 from rig.lab.errors import StoreInputError
 from rig.lab.local import CALIBRATION_FILE, LocalSession, session_folders
-from rig.lab.records import CalibrationRecord, Filters, SessionRow, load_document
+from rig.lab.records import CalibrationRecord, Filters, SessionRow
 from rig.session_data import SessionData
 from rig.store.schema import SESSION_FILE
 
@@ -36,6 +40,7 @@ class FolderStore:
         self.url = str(self.root)
         self._cache: dict[Path, tuple] = {}
         self._lock = threading.Lock()
+        self.skipped: dict[str, str] = {}             # a folder or file left out of the answers -> why
 
     def describe(self) -> str:
         return str(self.root)
@@ -52,11 +57,17 @@ class FolderStore:
             return cached[1]
         try:
             with LocalSession.open(folder) as local:
+                validate.check_file(local)
                 meta = local.metadata()
                 ident = identity.of(local, meta)
                 holds, first, last = local.hold_summary()
-        except StoreInputError:
-            return None                            # not (yet) a readable session: not listed
+        except StoreInputError as exc:
+            with self._lock:
+                self.skipped[str(folder)] = str(exc)
+                self._cache[folder] = (sig, None)
+            return None                            # not a readable session: not listed, but named
+        with self._lock:
+            self.skipped.pop(str(folder), None)
         row = SessionRow(ident.key, ident.name, ident.unit, ident.rig, ident.operator, ident.started, ident.status,
                          str(meta.get("status_reason") or ""), meta.get("verdict"), ident.ended, ident.planned, holds,
                          _utc(first), _utc(last), ident.simulated)
@@ -76,15 +87,28 @@ class FolderStore:
         records = []
         for _, source, path in sorted(found, key=lambda f: f[0]):
             try:
-                doc = load_document(path.read_text(encoding="utf-8"), str(path))
-            except (OSError, UnicodeDecodeError, StoreInputError):
+                doc = read_calibration(path)
+            except InputError as exc:
+                with self._lock:
+                    self.skipped[str(path)] = str(exc)
                 continue
+            except OSError as exc:
+                with self._lock:
+                    self.skipped[str(path)] = f"{path}: cannot be read ({exc.strerror})"
+                continue
+            with self._lock:
+                self.skipped.pop(str(path), None)
             records.append(CalibrationRecord(row.name, row.key, row.started, row.rig, row.status, source, doc))
         return records
 
     def _all(self) -> list[tuple[Path, SessionRow, list[CalibrationRecord]]]:
         out = []
-        for folder in session_folders(self.root):
+        folders = session_folders(self.root)
+        with self._lock:
+            present = {str(f) for f in folders}
+            for gone in [k for k in self.skipped if not any(k == f or k.startswith(f + "/") for f in present)]:
+                del self.skipped[gone]
+        for folder in folders:
             entry = self._entry(folder)
             if entry is not None:
                 out.append((folder, *entry))

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import psycopg
 
-from rig.lab.errors import NoLabTables, SchemaMismatch, StoreReadOnly, redact
+from rig.lab.errors import NoLabTables, SchemaMismatch, StoreDenied, StoreReadOnly, redact
 
 LAB_SCHEMA_VERSION = 1
 SCHEMA_LOCK = 0x52494753          # advisory lock key while creating the tables ("RIGS")
@@ -136,7 +136,11 @@ def ensure_schema(conn: psycopg.Connection, url: str, *, create: bool = True) ->
                 pass                                # made by another rig at the same moment: use theirs
             finally:
                 conn.execute("SELECT pg_advisory_unlock(%s)", (SCHEMA_LOCK,))
-        except (psycopg.errors.ReadOnlySqlTransaction, psycopg.errors.InsufficientPrivilege) as exc:
+        except psycopg.errors.InsufficientPrivilege as exc:
+            raise StoreDenied(f"{redact(url)}: the database has no lab tables and this role may not create them "
+                              f"({exc.diag.message_primary}); an administrator makes them: `rig lab migrate "
+                              "--store URL` (docs/guides/lab-setup.md)") from None
+        except psycopg.errors.ReadOnlySqlTransaction as exc:
             raise StoreReadOnly(f"{redact(url)}: cannot create the lab tables: the database is read-only for "
                                 f"this user ({exc.diag.message_primary})") from None
         version = stored_version(conn)

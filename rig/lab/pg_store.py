@@ -8,7 +8,7 @@ import uuid
 from psycopg_pool import ConnectionPool, PoolTimeout
 
 from rig.lab import sessiondata
-from rig.lab.errors import NoLabTables, StoreUnavailable, redact
+from rig.lab.errors import NoLabTables, StoreInputError, StoreUnavailable, redact
 from rig.lab.pg import CONNECT_TIMEOUT_S, STATEMENT_TIMEOUT_MS, TCP_USER_TIMEOUT_MS, connect, translated
 from rig.lab.pg_schema import ensure_schema, stored_version
 from rig.lab.records import CalibrationRecord, Filters, SessionRow, load_document
@@ -28,6 +28,7 @@ class PgStore:
 
     def __init__(self, url: str, *, write: bool = False, max_connections: int = 8) -> None:
         self.url = url
+        self.skipped: dict[str, str] = {}             # a stored record left out of the answers -> why
         try:
             connect(url, read_only=not write, create=write).close()    # reachable, and the schema is ours
             self._tables = True
@@ -110,8 +111,14 @@ class PgStore:
                          f"FROM sessions s JOIN units u ON u.id = s.unit_id JOIN rigs r ON r.id = s.rig_id "
                          f"JOIN ({LATEST_CALIBRATION}) c ON c.session_id = s.id WHERE {cond} "
                          "ORDER BY s.started_utc, s.id", args)
-        return [CalibrationRecord(n, k, st, rig, status, src, load_document(doc, f"{redact(self.url)} session {n}"))
-                for n, k, st, rig, status, src, doc in rows]
+        records = []
+        for n, k, st, rig, status, src, doc in rows:
+            where = f"{redact(self.url)} session {n} ({src} calibration)"
+            try:
+                records.append(CalibrationRecord(n, k, st, rig, status, src, load_document(doc, where)))
+            except StoreInputError as exc:          # not a JSON document: left out of the answer, named
+                self.skipped[where] = str(exc)
+        return records
 
     def units(self) -> list[dict]:
         rows = self._all("SELECT u.serial, u.board, count(s.id), count(c.session_id), max(s.started_utc) FILTER "

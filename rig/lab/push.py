@@ -5,7 +5,12 @@ lock on its unit serial, so two rigs claiming one unit at the same moment are to
 refused, naming the first. Before anything is written the segments the store already has are compared with
 the local ones by digest; a session that differs from the stored one under the same key is refused whole.
 Then each hold goes with the move that led to it in one transaction (as in the session file), metadata and
-events after them, and the calibration and report files once the session is finished. Every insert is
+events after them, and the calibration and report files once the session is finished.
+
+Nothing is written before it is checked against its format (`rig.lab.validate`): the first push of a
+session checks the whole folder as it stands (the file's integrity and layout, every record, and the
+calibration and report files of a finished session), so a damaged folder is refused whole; a live mirror's
+later pushes check each new record, and the files once the session is finished, before they go. Every insert is
 `ON CONFLICT DO NOTHING`: a push cut off anywhere is finished by the next one, with one copy of every row.
 """
 
@@ -17,7 +22,7 @@ from datetime import datetime, timezone
 
 import psycopg
 
-from rig.lab import identity
+from rig.lab import identity, validate
 from rig.lab.errors import PushRefused, UnitClaimed, redact
 from rig.lab.local import LocalSession, Segment
 from rig.lab.pg import translated
@@ -58,20 +63,27 @@ class Pusher:
         self.session_id: int | None = None
         self.done = {"metadata": 0, "segment": 0, "event": 0}
         self.files_pushed: set[str] = set()
+        self.checked_segment = 0              # segments up to this seq were checked by the first push
 
     def push(self) -> PushResult:
         with translated(self.url):
             return self._push()
 
     def _push(self) -> PushResult:
+        first = self.session_id is None
+        if first:
+            validate.check_file(self.local)
         meta = self.local.metadata()
+        if first:
+            self.checked_segment = validate.check_records(self.local, meta, files=meta.get("status") in
+                                                          identity.FINISHED)
         ident = identity.of(self.local, meta, rig=self.rig)
         result = PushResult(ident.key, ident.name, status=meta.get("status", ""))
-        if self.session_id is None:
+        if first:
             self.session_id = self._register(ident)
             self._check_stored()
         result.metadata = self._push_metadata()
-        moves, holds = self._push_segments()
+        moves, holds = self._push_segments(meta)
         result.moves, result.holds = moves, holds
         result.events = self._push_events()
         if meta.get("status") in identity.FINISHED:
@@ -143,6 +155,7 @@ class Pusher:
         rows = self.local.metadata_rows(self.done["metadata"])
         if not rows:
             return 0
+        validate.check_metadata(self.local, rows)
         with self.conn.transaction():
             with self.conn.cursor() as cur:
                 cur.executemany("INSERT INTO session_metadata (session_id, seq, key, value, written_utc) "
@@ -151,8 +164,11 @@ class Pusher:
         self.done["metadata"] = rows[-1][0]
         return len(rows)
 
-    def _push_segments(self) -> tuple[int, int]:
+    def _push_segments(self, meta: dict) -> tuple[int, int]:
         segments = self.local.segments(self.done["segment"])
+        for seg in segments:
+            if seg.seq > self.checked_segment:
+                validate.check_segment(self.local, seg, meta)
         moves = holds = 0
         batch: list[Segment] = []
         size = 0
@@ -191,6 +207,7 @@ class Pusher:
         rows = self.local.events(self.done["event"])
         if not rows:
             return 0
+        validate.check_events(self.local, rows)
         with self.conn.transaction(), self.conn.cursor() as cur:
             cur.executemany("INSERT INTO events (session_id, seq, t, kind, message, written_utc) "
                             "VALUES (%s, %s, %s, %s, %s, %s) ON CONFLICT DO NOTHING",
@@ -199,6 +216,7 @@ class Pusher:
         return len(rows)
 
     def _push_files(self) -> int:
+        validate.check_files(self.local)
         added = 0
         calibration = self.local.calibration_text()
         if calibration is not None and _digest(calibration.encode()) not in self.files_pushed:

@@ -16,8 +16,8 @@ import numpy as np
 
 from rig.calibration.result import TriadCalibration
 from rig.io.atomic import write_text_atomic
-from rig.report.limits import LimitCheck, check_limits, validate_limits, verdict
-from rig.report.markdown import cell, number, table
+from rig.report.limits import REASONS, LimitCheck, check_limits, validate_limits, verdict
+from rig.report.markdown import cell, flattened, number, table
 from rig.report.metrics import METRICS, STATIC_SENSORS, SensorMetrics, sensor_metrics
 from rig.session_data import SessionData
 
@@ -74,12 +74,12 @@ def write_report(out_dir: Path, session: SessionData, calibrations: dict[str, Tr
     metrics, checks = evaluation.metrics, evaluation.checks
     out_dir.mkdir(parents=True, exist_ok=True)
     parts = [f"# Calibration report\n\n**Verdict: {verdict(checks)}** ({_passed(checks)})",
-             _session_section(session, metadata if metadata is not None else session.meta, gravity, field_uT),
-             _acceptance_section(checks)]
+             _acceptance_section(checks), _session_section(session, gravity, field_uT)]
     if not plots:
         parts.append("Figures: not drawn for this report (they are drawn on demand: `--plots`).")
     for sensor, cal in calibrations.items():
         parts.append(_sensor_section(out_dir, sensor, cal, metrics[sensor], truths.get(sensor), plots))
+    parts.append(_metadata_section(metadata if metadata is not None else session.meta))
     write_text_atomic(out_dir / "report.json", json.dumps(_summary(checks, metrics), indent=2) + "\n")
     return write_text_atomic(out_dir / "report.md", "\n\n".join(parts) + "\n")
 
@@ -110,29 +110,34 @@ def truth_per_sensor(truth: dict | None) -> dict[str, dict[str, np.ndarray]]:
 def _passed(checks: list[LimitCheck]) -> str:
     if not checks:
         return "no limits given"
-    return f"{sum(c.result == 'PASS' for c in checks)} of {len(checks)} checks passed"
+    metrics = ", ".join(dict.fromkeys(c.metric for c in checks))
+    sensors = ", ".join(dict.fromkeys(c.sensor for c in checks))
+    return f"{sum(c.result == 'PASS' for c in checks)} of {len(checks)} checks passed: {metrics} of {sensors}"
 
 
-def _session_section(session: SessionData, metadata: dict, gravity: float, field_uT: float | None) -> str:
+def _session_section(session: SessionData, gravity: float, field_uT: float | None) -> str:
     holds = session.hold_rows()
     n_moves = len(np.unique(session.step[session.is_move])) if session.is_move.any() else 0
     span = float(session.t[-1] - session.t[0]) if session.t.size else 0.0
     facts = [["source", session.source], ["sensors", ", ".join(session.sensors)], ["holds", len(holds)],
              ["moves", n_moves], ["rows", int(session.t.size)], ["duration_s", span],
              ["G_mps2", gravity], ["M_uT", "n/a" if field_uT is None else field_uT]]
+    return "## Session\n\n" + table(["item", "value"], facts)
+
+
+def _metadata_section(metadata: dict) -> str:
+    """Every metadata key, a nested one as dotted keys, each value whole and readable (markdown.flattened)."""
     keys = [k for k in METADATA_FIRST if k in metadata] + sorted(k for k in metadata if k not in METADATA_FIRST)
-    meta_rows = [[k, metadata[k]] for k in keys]
-    text = "## Session\n\n" + table(["item", "value"], facts)
-    if meta_rows:
-        text += "\n\n### Metadata\n\n" + table(["key", "value"], meta_rows)
-    return text
+    rows = [[k, text] for key in keys for k, text in flattened(metadata[key], key)]
+    return "## Metadata\n\n" + (table(["key", "value"], rows) if rows else "none recorded")
 
 
 def _acceptance_section(checks: list[LimitCheck]) -> str:
     if not checks:
         return "## Acceptance\n\nNo limits were given; nothing was checked."
-    rows = [[c.sensor, f"{c.metric}_max", number(c.value), number(c.limit), c.result] for c in checks]
-    return "## Acceptance\n\n" + table(["sensor", "check", "value", "limit", "result"], rows)
+    rows = [[c.sensor, f"{c.metric}_max", number(c.value), number(c.limit), c.result, REASONS[c.metric]]
+            for c in checks]
+    return "## Acceptance\n\n" + table(["sensor", "check", "value", "limit", "result", "why it is checked"], rows)
 
 
 def _sensor_section(out_dir: Path, sensor: str, cal: TriadCalibration, m: SensorMetrics,

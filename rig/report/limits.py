@@ -21,6 +21,27 @@ from rig.report.metrics import METRICS
 
 PASS, FAIL, UNAVAILABLE = "PASS", "FAIL", "UNAVAILABLE"
 
+# why a limit on each metric is worth checking: what a value beyond it says about the calibration
+REASONS = {
+    "residual_rms": "the linear model u = H (y - B) must explain the data; a larger residual is an effect it "
+                    "misses (a loose fixture, a field carried by the table, a hold that moved)",
+    "norm_error_rms": "calibrated hold means must lie on the sphere of the known magnitude (G or M)",
+    "norm_error": "no single orientation may miss the known magnitude by more (a bad hold, a saturated axis)",
+    "rotation_residual_rms": "the hold means must turn with the table as its encoders say (axes or fixture "
+                             "misaligned otherwise)",
+    "rotation_residual": "no single orientation may disagree with the encoders by more",
+    "B_std": "the offset must be known this well for use: the holds must constrain every axis (a blind axis or "
+             "a noisy sensor leaves it uncertain)",
+    "H_std": "the gain and misalignment must be known this well (in the sensor's own units)",
+    "H_std_pct": "the gain and misalignment must be known to this fraction of the gain: the accuracy the unit "
+                 "is calibrated for",
+    "move_error_rms_deg": "the gyro's calibrated rates must integrate to the table's rotations",
+    "move_error_deg": "no single move may integrate to a rotation further from the table's",
+    "static_rate_dps": "the calibrated gyro must read no rotation while the table holds still (offset)",
+    "H_error_pct": "simulated: the estimate must be this close to the simulator's truth",
+    "B_error": "simulated: the offset must be this close to the simulator's truth",
+}
+
 
 class LimitsError(ValueError):
     """A limits dict breaks the schema; names the sensor and key."""

@@ -65,6 +65,7 @@ METRICS = {
     "rotation_residual": ("max over holds of |u_j - R_j^T v|", "{unit}"),
     "B_std": ("largest standard deviation of an element of B", "counts"),
     "H_std": ("largest standard deviation of an element of H", "{unit}/count"),
+    "H_std_pct": ("largest standard deviation of an element of H, in % of H's mean row norm", "%"),
     "move_error_rms_deg": ("RMS over moves of angle(R_ref^T R_int)", "deg"),
     "move_error_deg": ("max over moves of angle(R_ref^T R_int)", "deg"),
     "static_rate_dps": ("max over holds of |H(y-B)| of the gyro at rest", "deg/s"),
@@ -85,6 +86,7 @@ def sensor_metrics(session: SessionData, sensor: str, cal: TriadCalibration, *, 
     v["residual_rms"] = float(cal.residual_rms)
     v["B_std"] = _max_or_nan(cal.B_std)
     v["H_std"] = _max_or_nan(cal.H_std)
+    v["H_std_pct"] = 100.0 * v["H_std"] / float(np.mean(np.linalg.norm(np.asarray(cal.H, dtype=float), axis=1)))
     reference = {"accel": gravity, "mag": field_uT}.get(sensor)
     if sensor in session.raw:
         if reference is not None:

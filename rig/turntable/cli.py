@@ -15,7 +15,7 @@ from rig.exits import CommandError, Exit, FiniteFloat, code_for, plain
 from rig.errors import RigError
 from rig.locks import table_lock
 from rig.turntable.client import TurntableLink
-from rig.turntable.errors import EStopActive
+from rig.turntable.errors import EStopActive, MoveRejected
 
 
 class NumbersAsArguments(click.Command):
@@ -87,6 +87,11 @@ def _run(ctx: click.Context, action, motion: bool = False, locked: bool = True) 
     except EStopActive as exc:
         message = plain(str(exc)).replace("; call reset()", "").replace("call reset()", "")
         raise CommandError(f"{message}; clear it with: rig table --url {url} reset", Exit.FAILED) from None
+    except MoveRejected as exc:
+        if exc.reason in OPERATOR_VALUE_ERRORS:           # the angles or rates asked for: the operator's to mend
+            raise CommandError(f"{plain(str(exc))}: the table refuses the value given (its limits are in its "
+                               "profile); the table was stopped and disabled", Exit.BAD_INPUT) from None
+        raise CommandError(plain(str(exc)), code_for(exc)) from None
     except ProfileOrURLError as exc:
         raise CommandError(plain(str(exc)), Exit.BAD_INPUT) from None
     except RigError as exc:
@@ -95,6 +100,7 @@ def _run(ctx: click.Context, action, motion: bool = False, locked: bool = True) 
         raise CommandError(f"{url}: {plain(str(exc))}", Exit.FAILED) from None
 
 
+OPERATOR_VALUE_ERRORS = ("OUT_OF_LIMITS", "BAD_VALUE")      # LAST_ERROR names of a refused value
 ProfileOrURLError = ValueError      # a malformed profile or URL (ProfileError and the URL parser's errors)
 
 

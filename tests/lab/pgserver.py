@@ -1,7 +1,9 @@
 """A real PostgreSQL server for the lab tests and benchmarks, from Debian's package.
 
 The data directory is under a fresh temporary folder, the server listens on loopback only, on a free port,
-with its socket in that folder, and trusts local connections (test data only). Run as root (CI is), the
+with its socket in that folder. It trusts the superuser `rig` on loopback (test data only); every other role
+logs in with a password (SCRAM), so that the tests of credentials, roles and the password file meet the
+authentication a lab's server asks for. Run as root (CI is), the
 server runs as the `postgres` user the Debian package creates (initdb refuses root). `kill()` is a crash:
 SIGKILL to the postmaster and every backend it started; `start()` then runs crash recovery.
 """
@@ -53,6 +55,13 @@ class PgServer:
             os.chmod(self.root, 0o700)
             self.as_user = ["runuser", "-u", "postgres", "--"]
         self._run(["initdb", "-D", str(self.data), "-U", SUPERUSER, "--auth=trust", "-E", "UTF8", "--no-sync"])
+        self.write_hba(f"host all {SUPERUSER} 127.0.0.1/32 trust\nhost all all 127.0.0.1/32 scram-sha-256\n")
+
+    def write_hba(self, host_lines: str) -> None:
+        """pg_hba.conf: local (socket) connections trusted, then `host_lines`; a running server reloads it."""
+        (self.data / "pg_hba.conf").write_text("local all all trust\n" + host_lines)
+        if (self.data / "postmaster.pid").exists():
+            self._run(["pg_ctl", "-D", str(self.data), "reload"])
 
     def _run(self, args: list[str], check: bool = True) -> subprocess.CompletedProcess:
         cmd = [*self.as_user, str(self.bin / args[0]), *args[1:]]
@@ -66,9 +75,10 @@ class PgServer:
         log = self.root / "server.log"
         return "\n".join(log.read_text(errors="replace").splitlines()[-n:]) if log.exists() else ""
 
-    def start(self) -> None:
+    def start(self, *settings: str) -> None:
+        """Start the server; `settings` are more `name=value` server settings (e.g. `log_connections=on`)."""
         options = (f"-p {self.port} -k {self.root} -c listen_addresses=127.0.0.1 -c max_connections=200"
-                   + ("" if self.fsync else " -c fsync=off"))
+                   + ("" if self.fsync else " -c fsync=off") + "".join(f" -c {s}" for s in settings))
         self._run(["pg_ctl", "-D", str(self.data), "-l", str(self.root / "server.log"), "-w", "-t", "60",
                    "-o", options, "start"])
 

@@ -197,7 +197,10 @@ def test_push_refuses_what_is_not_a_session_or_not_a_database(tmp_path, pg_url):
     assert done.returncode == 2 and "folder store" in done.stderr
     done = rig("push", tmp_path / "empty", "--store", "postgresql://rig@127.0.0.1:5432/x?sslmode=bogus")
     no_traceback(done)
-    assert done.returncode == 3, done.stderr
+    assert done.returncode == 2 and "sslmode" in done.stderr, done.stderr     # the URL is the user's to mend
+    done = rig("push", tmp_path / "empty", "--store", "postgresql://rig:s3cret@127.0.0.1:5432/x")
+    no_traceback(done)
+    assert done.returncode == 2 and "password file" in done.stderr and "s3cret" not in done.stderr, done.stderr
 
 
 def test_rigs_creating_the_tables_at_the_same_moment_all_succeed(pg_url):

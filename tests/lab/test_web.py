@@ -126,7 +126,7 @@ def test_serve_on_a_folder_store_and_a_busy_port(tmp_path, serve):
     status, body = site.get("/unit/F-1")
     assert status == 200 and b"1 calibration;" in body
     done = rig("serve", "--store", tmp_path / "f", "--port", site.port, timeout=30)
-    assert done.returncode == 2 and "in use" in done.stderr and "Traceback" not in done.stderr
+    assert done.returncode == 4 and "in use" in done.stderr and "Traceback" not in done.stderr
 
 
 @pytest.mark.parametrize("stop, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143), (signal.SIGHUP, 129)])

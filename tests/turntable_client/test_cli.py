@@ -49,7 +49,7 @@ def test_errors_exit_non_zero_with_message(tmp_path):
     fake = FakeTurntable(clock=RealClock())
     with TurntableServer(fake) as srv:
         out = run(srv.url, "move", "0", "500")
-        assert out.exit_code == 3 and "OUT_OF_LIMITS" in out.output and "ILLEGAL_DATA_VALUE (03)" in out.output
+        assert out.exit_code == 2 and "OUT_OF_LIMITS" in out.output and "ILLEGAL_DATA_VALUE (03)" in out.output
 
 
 def test_a_missing_serial_device_is_named_at_once(tmp_path):

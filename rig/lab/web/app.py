@@ -49,7 +49,8 @@ def create_app(store) -> Starlette:
     templates = Jinja2Templates(env=env)
 
     def page(request: Request, name: str, status: int = 200, **context) -> Response:
-        context.update(store=store.describe(), path=request.url.path)
+        context.update(store=store.describe(), path=request.url.path,
+                       skipped=list(dict(getattr(store, "skipped", {}) or {}).values()))
         return templates.TemplateResponse(request, name, context, status_code=status, headers=SECURITY_HEADERS)
 
     def guarded(handler):
