@@ -1,6 +1,6 @@
-"""The exit codes of every `rig` command (`EXIT_TABLE`, the table in README, "Exit codes"), how errors map onto
-them, and the option types that refuse bad numbers at the command line. `tests/faults/test_exit_table.py` makes
-every code of the table with a real command and checks the README lists the same codes."""
+"""The exit codes of every `rig` command (`EXIT_TABLE`, from which docs/reference/exit-codes.md is generated), how
+errors map onto them, and the option types that refuse bad numbers at the command line.
+`tests/faults/test_exit_table.py` makes every code of the table with a real command."""
 
 from __future__ import annotations
 

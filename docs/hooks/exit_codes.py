@@ -1,65 +1,43 @@
-"""MkDocs hook: the exit codes' table, generated from `rig.exits` at build time.
+"""MkDocs hook: the exit codes' table, generated from `rig.exits.EXIT_TABLE` at build time.
 
-The page `reference/exit-codes.md` holds the marker `<!-- generated: exit-codes -->`. The codes are the `Exit`
-enum's and 128 + N for each of `STOP_SIGNALS`; their meanings are the lines of the module's docstring, which lists
-every code. The build fails (strict) when a code of the enum has no line there or a line names a code the enum
-does not have: the page says what the code does, or there is no page.
+The page `reference/exit-codes.md` holds the marker `<!-- generated: exit-codes -->`. Every code of the `Exit` enum
+and 128 + N for each of `STOP_SIGNALS` must have its row in `EXIT_TABLE`, and every row's codes must be one of
+those: the build fails (strict) otherwise, so the page says what every code does, or there is no page.
+`tests/faults/test_exit_table.py` makes every code of the same table with a real command.
 """
 
 from __future__ import annotations
 
-import re
 import signal
 
 from rig import exits
 
 MARKER = "<!-- generated: exit-codes -->"
-_LINE = re.compile(r"^\s{2,}(\d+|128\+N)\s{2,}(\S.*)$")
 
 
 class Mismatch(Exception):
-    """The docstring of rig.exits and its Exit enum disagree."""
+    """EXIT_TABLE and the codes a command can end with disagree."""
 
 
-def documented() -> dict[str, str]:
-    """code (as written: "0", "70", "128+N") -> its docstring line(s), joined."""
-    out: dict[str, str] = {}
-    current = None
-    for line in (exits.__doc__ or "").splitlines():
-        match = _LINE.match(line)
-        if match:
-            current = match.group(1)
-            out[current] = match.group(2).strip()
-        elif current is not None and line.startswith(" " * 8) and line.strip():
-            out[current] += " " + line.strip()
-        else:
-            current = None
-    return out
-
-
-def rows() -> list[tuple[str, str, str]]:
-    """(code, name, meaning) for every exit code a command can end with."""
-    lines = documented()
-    enum_codes = {str(int(member)): member.name for member in exits.Exit}
-    missing = set(enum_codes) - set(lines)
-    extra = set(lines) - set(enum_codes) - {"128+N"}
-    if missing or extra or "128+N" not in lines:
-        raise Mismatch(f"rig.exits: the docstring's codes {sorted(lines)} and the Exit enum's {sorted(enum_codes)} "
-                       f"differ (missing {sorted(missing)}, extra {sorted(extra)})")
-    out = [(code, enum_codes[code], lines[code]) for code in sorted(enum_codes, key=int)]
-    after = lines["128+N"].split(";", 1)[1].strip() if ";" in lines["128+N"] else ""
-    aborted = []
+def rows() -> list[tuple[str, str, str, str]]:
+    """(code, name, meaning, the session's stored status) for every exit code a command can end with."""
+    names = {int(member): f"`{member.name}`" for member in exits.Exit}
     for name in exits.STOP_SIGNALS:
         if hasattr(signal, name):
-            number = int(getattr(signal, name))
-            aborted.append((str(exits.aborted(number)), f"128 + {name}",
-                            f"aborted by {name} (signal {number})" + (f"; {after}" if after else "")))
-    return out + sorted(aborted, key=lambda row: int(row[0]))
+            names[exits.aborted(int(getattr(signal, name)))] = f"128 + {name}"
+    table = {code: (meaning, status) for codes, meaning, status in exits.EXIT_TABLE for code in codes}
+    if set(table) != set(names):
+        raise Mismatch(f"rig.exits: EXIT_TABLE's codes {sorted(table)} and the codes a command can end with "
+                       f"{sorted(names)} differ (missing {sorted(set(names) - set(table))}, extra "
+                       f"{sorted(set(table) - set(names))})")
+    return [(str(code), names[code], *table[code]) for code in sorted(table)]
 
 
 def generate() -> str:
-    table = ["| code | name | meaning |", "| --- | --- | --- |"]
-    table += [f"| {code} | `{name}` | {meaning.replace('|', chr(92) + '|')} |" for code, name, meaning in rows()]
+    bar = chr(92) + "|"
+    table = ["| code | name | meaning | the session's stored status |", "| --- | --- | --- | --- |"]
+    table += [f"| {code} | {name} | {meaning.replace('|', bar)} | `{status}` |"
+              for code, name, meaning, status in rows()]
     return "\n".join(table)
 
 

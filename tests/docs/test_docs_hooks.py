@@ -41,16 +41,15 @@ def test_checked_ranges_are_what_the_loader_enforces(tmp_path):
 
 def test_exit_code_rows_cover_the_enum_and_the_stop_signals():
     rows = hook("exit_codes").rows()
-    codes = [int(code) for code, _, _ in rows]
-    assert set(codes) >= {int(m) for m in exits.Exit} | {129, 130, 143}
-    assert all(meaning for _, _, meaning in rows)
+    codes = [int(code) for code, _, _, _ in rows]
+    assert set(codes) == {int(m) for m in exits.Exit} | {129, 130, 143}
+    assert all(meaning and status for _, _, meaning, status in rows)
 
 
-def test_exit_code_generator_refuses_a_code_the_docstring_lacks(monkeypatch):
+def test_exit_code_generator_refuses_a_code_the_table_lacks(monkeypatch):
     exit_codes = hook("exit_codes")
-    doc = "\n".join(line for line in exits.__doc__.splitlines() if not line.strip().startswith("4 "))
-    monkeypatch.setattr(exits, "__doc__", doc)
-    with pytest.raises(exit_codes.Mismatch, match="4"):
+    monkeypatch.setattr(exits, "EXIT_TABLE", tuple(row for row in exits.EXIT_TABLE if 4 not in row[0]))
+    with pytest.raises(exit_codes.Mismatch, match="missing \\[4\\]"):
         exit_codes.rows()
 
 
