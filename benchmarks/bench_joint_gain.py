@@ -1,7 +1,7 @@
 """How much more accurate the joint estimator is than the two-step method, and how much more any unbiased
 estimator could be (Cramer-Rao bound); prints JSON.
 
-Target (issue 4): "with 12 orientations, the joint estimator at least 3 times more accurate than the two-step
+Target: "with 12 orientations, the joint estimator at least 3 times more accurate than the two-step
 method". Accuracy is not one number, so every statistic is printed and none is picked: for each trial the B
 error |dB|, the relative H error ||dH||_F / ||H||_F and the calibrated-vector error (RMS over 2000 directions of
 |H_est (y - B_est) - u| / |u|, what a user of the calibration sees), then the gain two-step / joint as the

@@ -4,9 +4,8 @@ A logger's CSV (accelerometer in g, gyroscope in counts, temperature; what an Al
 written at several lengths up to 6 hours (2.16 million rows), then, each in a fresh process so the peak
 resident memory is that of the step alone: `rig import csv` (read, check, write the session),
 `rig.io.session_csv.read_session` of the result (what every command does first) and `rig noise` (the Allan
-deviation and noise terms of every axis, what the log is recorded for). Targets (issue 13): time
-linear in the rows, memory under 1 GB. With `--twin`, also `rig discrepancy` (the log against its twin, README "A
-still log"): its workers are forked, so its memory is the proportional set size of the command and its workers
+deviation and noise terms of every axis, what the log is recorded for). Targets: time linear in the rows, memory
+under 1 GB. With `--twin`, also `rig discrepancy` (the log against its twin, docs/guides/discrepancy.md): its workers are forked, so its memory is the proportional set size of the command and its workers
 summed, sampled every 0.5 s (Linux /proc), not one process's peak. Prints JSON.
 Usage: python benchmarks/bench_long_recording.py [--hours 0.25 1 6] [--twin]
 """

@@ -1,4 +1,4 @@
-"""Benchmark: the planner against today's default plan on the simulated rig (issue 15). Prints JSON.
+"""Benchmark: the planner against today's default plan on the simulated rig. Prints JSON.
 
 For each table time from 30 s to 240 s: today's default plan (the configuration's 20 orientations, its holds
 shortened or lengthened to fit) and the planner's (`rig.planner.plan_for_budget`), each run on `--seeds`
@@ -127,7 +127,7 @@ def main() -> None:
     ratios += [x[s] for x in (default["achieved_rms_over_predicted"], at_half["achieved_rms_over_predicted"])
                for s in SENSORS]
     print(json.dumps({
-        "benchmark": "planner vs today's default plan, simulated rig (issue 15)", "seeds": len(seeds),
+        "benchmark": "planner vs today's default plan, simulated rig", "seeds": len(seeds),
         "noise_model": noise.sigma,
         "planning_s_max": round(max(planning), 3), "planning_target_s": 2.0,
         "curve": curve,

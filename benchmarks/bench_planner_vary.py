@@ -1,5 +1,5 @@
 """Benchmark: the planner's plan at half of today's default table time against today's default plan, on the second
-independent simulator (issue 15: "... on the simulated rig and on the second independent simulator"). Prints JSON.
+independent simulator. Prints JSON.
 
 `bench_planner.py` measures the claim on the rig's own simulator; a plan that is only better there may be better
 only because the planner and the simulator share the rig's model. Here both plans run on
@@ -20,7 +20,7 @@ PATH, running the same `rig` package this benchmark imports), and again with `--
 and magnetometer from their hold means alone) and with `--settle-s 0` (the default drops 0.5 s of every hold of
 an interchange session as settling; these holds begin settled, as the rig's own do, which the rig's own folders
 are calibrated as). H error: relative Frobenius against vary_sim's truth (`vary_sim.score`), median over seeds.
-The target of issue 15 is met for a sensor when the half-time plan's median H error is at most the default's.
+The target is met for a sensor when the half-time plan's median H error is at most the default's.
 
     python benchmarks/bench_planner_vary.py [--seeds 10] [--variant baseline] [--keep DIR]
 """
@@ -143,7 +143,7 @@ def main() -> None:
     primary = compare(default, half, "as_user")
     print(json.dumps({
         "benchmark": "planner at half the default's table time vs today's default plan, second independent "
-                     "simulator (issue 15)",
+                     "simulator",
         "simulator": f"tests/independent_vary/vary_sim.py, variant {args.variant!r} (its own unit, noise and truth)",
         "sample_rates_hz": {s: getattr(cfg, f"{s}_hz") or cfg.rate_hz for s in SENSORS},
         "seeds": len(seeds), "H_error": "relative Frobenius, %, median over seeds",

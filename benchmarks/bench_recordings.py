@@ -1,5 +1,5 @@
 """Ours beside the peers on the peers' own recordings, scored by what each predicts for data left out of its fit
-(issue 13.2); prints JSON.
+prints JSON.
 
 * imucal 2.6.0 (the `peers` extra) runs its Ferraris calibration on its two example sessions as its docs do
   (`examples/basic_ferraris.py`: the continuous SI file and its section list, 102.4 Hz; its tests: the pre-cut

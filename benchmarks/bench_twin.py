@@ -1,10 +1,10 @@
-"""The twin of each real recording (issue 13, items 3-4): `rig discrepancy DIR` as a user runs it, timed as a
+"""The twin of each real recording: `rig discrepancy DIR` as a user runs it, timed as a
 process (with --heldout, which adds every leave-one-out refit twice), and what it found: statistics inside the
 replicas' 1-99 % band before and after the extension, the causes named, the model tests, what stays unexplained.
 Beside the wall time, the CPU seconds of the command and its workers and the machine's load before and after it:
 on a machine shared with others the CPU seconds are the figure their work does not change (on an idle 2-core
 machine the wall time is about half of them plus the serial start). Every recording in tests/data that the
-importers read is used, and the MPU-6050 still log of tests/data (README, "A still log"); a recording that is not
+importers read is used, and the MPU-6050 still log of tests/data (docs/guides/noise.md); a recording that is not
 there is reported as missing, not skipped silently. Prints JSON.
 Usage: python benchmarks/bench_twin.py [--replicas N] [--data tests/data] [--only NAME]
 """

@@ -13,7 +13,7 @@ long as a run ends without finishing (at most MAX_RUNS runs), with faults drawn 
 
 Per session: holds lost (committed once, missing later or at the end), holds or moves duplicated (the segments a
 session is built from are not each hold once, each move once, in order), exit codes truthful (the code of
-every run against the table in README "Exit codes", the status it stored and what the faults of that run may
+every run against rig.exits.EXIT_TABLE, the status it stored and what the faults of that run may
 produce), tracebacks seen (stdout, stderr, rig-error.log), every fault fired either survived or reported, and
 the H error of each sensor against the same unit's uninterrupted session (the twin, same seed). Beside it the
 spread of twin against twin with another noise trial (--twin-trials), since a fault or an interruption

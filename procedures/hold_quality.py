@@ -94,7 +94,7 @@ def mean_standard_error(y: np.ndarray, quantum: float = QUANTUM_COUNTS) -> np.nd
 
 @dataclass
 class HoldTarget:
-    """Sequential holds (issue 15 item 3): a hold ends once the standard error of every static sensor's mean
+    """Sequential holds: a hold ends once the standard error of every static sensor's mean
     (`mean_standard_error`, worst axis) is what the plan asked, between `min_s` and `max_s`. The plan asks for
     the standard error that `hold_s` seconds give at the unit's own noise: the first hold of a run is held for
     `hold_s` and sets each sensor's target; later holds end as soon as they have it, a noisier or correlated

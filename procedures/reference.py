@@ -3,7 +3,7 @@
 Polls carry position and velocity, so a cubic Hermite spline through them keeps the rate ramps: a
 straight line between 10 Hz polls misses them by up to a degree at the rates of a calibration move.
 The spline is scipy's `CubicHermiteSpline` written out in numpy (tests/planner/test_reference_spline.py holds
-them equal): importing scipy.interpolate cost a simulated session a sixth of its wall time (issue 15).
+them equal): importing scipy.interpolate cost a simulated session a sixth of its wall time.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The `rig` command line. Subcommands live beside what they drive and are imported when used.
 
-Every command ends with an exit code of the table in `rig.exits` (README, "Exit codes"), and none
+Every command ends with an exit code of the table in `rig.exits` (docs/reference/exit-codes.md), and none
 prints a traceback: an unexpected exception is reported in one line, its traceback written to a file.
 """
 
@@ -14,7 +14,7 @@ import click
 from rig import exits
 
 # The subcommands, imported only when run: name -> ("module:attribute" of a click command, its short help).
-# The short help is what `rig --help` lists, kept here so that listing imports nothing (issue 17, start-up);
+# The short help is what `rig --help` lists, kept here so that listing imports nothing;
 # it is the first sentence of the command's docstring, as click shows it (tests/startup/test_help_table.py
 # holds each equal to the command's own). One line per command; a bare "module:attribute" still works (the
 # command is then imported to list it, and that test names the text to add).

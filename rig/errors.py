@@ -1,6 +1,6 @@
 """Errors of the rig package (drivers have their own hierarchy rooted at `drivers.DriverError`).
 
-The command layer turns them into exit codes (README, "Exit codes"): an `InputError` is the user's to fix
+The command layer turns them into exit codes (docs/reference/exit-codes.md): an `InputError` is the user's to fix
 (a file, a folder, an option), a `Busy` is another process holding what this one needs, any other `RigError`
 is a fault of the rig or its data.
 """

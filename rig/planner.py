@@ -1,4 +1,4 @@
-"""Plan a session for a time budget or an accuracy target, from the Cramer-Rao bound (issue 15 item 1).
+"""Plan a session for a time budget or an accuracy target, from the Cramer-Rao bound.
 
 A plan is the number of orientations (the lattice of `rig.schedule`: directions spread over the sphere, every
 second one in the table's other pose, a short tour), the hold length and the move profile. The moves run at the

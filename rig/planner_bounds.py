@@ -11,7 +11,7 @@ puts `sigma^2 dt T_k` on each axis of S_k (angle random walk), and the reference
 two hold orientations and an error in proportion to its angle (MOVE_RELATIVE_SD). The holds' gyro means measure B with sigma^2 / samples. The Fisher information of
 (vec H, B) is summed over moves and holds and inverted, as in bounds.py.
 
-Accelerometer and magnetometer samples of the moves (`rig.pipeline.move_rows`, issue 15 item 2): every
+Accelerometer and magnetometer samples of the moves (`rig.pipeline.move_rows`): every
 sample of a move is one more reading at the orientation the table has at that instant, with the sensor's
 per-sample noise; `move_rotations` samples the planned moves (both axes' trapezoids from the same start, then
 the still time until the hold begins) and `vector_bound` adds them to the holds. The pipeline also fits the

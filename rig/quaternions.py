@@ -3,7 +3,7 @@
 Quaternions are scalar-first `(w, x, y, z)`, Hamilton product, stored with `w >= 0` (conventions.md).
 Functions accept a single item or a stack. Markley's matrix -> quaternion, the series near zero angle and
 the SVD for a matrix that is not orthogonal are scipy's; scipy.spatial costs ~0.2 s to import, more than a
-whole `rig calibrate --from` may take (issue 17, start-up). tests/startup/test_rotations.py holds these
+whole `rig calibrate --from` may take. tests/startup/test_rotations.py holds these
 equal to scipy's `Rotation` to round-off.
 """
 

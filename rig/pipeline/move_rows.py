@@ -1,4 +1,4 @@
-"""The accelerometer's and magnetometer's move samples fed to `rig.calibration.move_samples` (issue 15 item 2).
+"""The accelerometer's and magnetometer's move samples fed to `rig.calibration.move_samples`.
 
 Which rows: those of the moves between two used holds (not touching an excluded hold, not across a resumed
 run), where the sensor has a sample and the reference is finite, and where the reference agrees with the

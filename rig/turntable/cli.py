@@ -66,7 +66,7 @@ def _link(ctx: click.Context) -> TurntableLink:
 
 
 def _run(ctx: click.Context, action, motion: bool = False, locked: bool = True) -> None:
-    """Connect, act, report; a turntable error becomes a non-zero exit with its message (README, exit codes).
+    """Connect, act, report; a turntable error becomes a non-zero exit with its message (docs/reference/exit-codes.md).
 
     A failed motion command also makes the table safe (stop, disable); a successful one leaves the
     servos on so the axes hold the position the operator asked for.

@@ -1,4 +1,4 @@
-"""The accelerometer's and magnetometer's move samples (issue 15 item 2): the estimator on synthetic moves with a
+"""The accelerometer's and magnetometer's move samples: the estimator on synthetic moves with a
 known sample-time offset and a known extra input, and the pipeline leaving out rows whose reference is stale."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The fault campaign's small version (benchmarks/fault_campaign.py, README "Fault campaign"): one simulated
+"""The fault campaign's small version (benchmarks/fault_campaign.py, docs/guides/interruptions.md): one simulated
 session per fault kind, that fault alone, run as an operator would (`rig calibrate --sim` in a subprocess, killed
 from outside, resumed), against the campaign's targets."""
 

@@ -1,4 +1,4 @@
-"""Truthful exits: the exit code says how a command ended (README, "Exit codes"), the terminal says it in one
+"""Truthful exits: the exit code says how a command ended (docs/reference/exit-codes.md), the terminal says it in one
 line without a traceback, and the stored status matches."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""`vary_sim.py --schedule`: a session follows the plan it is given (issue 15 runs the rig's plans on this
+"""`vary_sim.py --schedule`: a session follows the plan it is given (the rig's plans run on this
 simulator), so the option cannot be silently ignored: the holds sit at the given table angles, in the given
 order, for the given lengths, and each move lasts its rest-to-rest trapezoid (straight, not the short way)
 plus the settle time. A schedule that is not one is refused with a message, not a traceback."""

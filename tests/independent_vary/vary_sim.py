@@ -8,7 +8,7 @@ Unix timestamps, strong mounting rotations, lever arms and settling.
 Usage: python tests/independent_vary/vary_sim.py OUT --seed N [--variant NAME] [--schedule FILE.json]
 
 `--schedule` (or `generate(..., schedule=Schedule(...))`) replaces the random orientations, hold lengths and
-move limits by a plan given from outside, so that one plan can be run here and on the rig (issue 15: the
+move limits by a plan given from outside, so that one plan can be run here and on the rig (the
 planner's plan against today's default). The unit, its noise and everything else stay the variant's.
 """
 from __future__ import annotations

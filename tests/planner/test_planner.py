@@ -1,4 +1,4 @@
-"""The planner (issue 15 item 1): plans that fit their budget or reach their target, a predicted accuracy the
+"""The planner: plans that fit their budget or reach their target, a predicted accuracy the
 simulated rig achieves, and `rig plan` / `rig calibrate --budget-s` on the command line."""
 
 import json
@@ -89,7 +89,7 @@ def test_the_simulated_rig_achieves_the_predicted_accuracy(config):
 
 
 def test_the_planner_counts_the_move_samples_the_pipeline_uses(config, tmp_path):
-    """The bound's move samples (issue 15 item 2) are the rows the pipeline fits: one simulated 45 s session's
+    """The bound's move samples are the rows the pipeline fits: one simulated 45 s session's
     accelerometer and magnetometer move samples within 5 % of the planned moves' samples times MOVE_ROWS_USED."""
     plan = planner.plan_for_budget(config, 45.0)
     cfg = planner.applied(config, plan)

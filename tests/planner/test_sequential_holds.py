@@ -1,4 +1,4 @@
-"""Sequential holds (issue 15 item 3): a hold ends when its means' standard error is what the plan asked."""
+"""Sequential holds: a hold ends when its means' standard error is what the plan asked."""
 
 import subprocess
 import sys

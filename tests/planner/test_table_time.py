@@ -1,4 +1,4 @@
-"""calibration.json records the table time the session used (`table_time_s`, issue 15 item 6)."""
+"""calibration.json records the table time the session used (`table_time_s`)."""
 
 import json
 

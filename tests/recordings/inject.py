@@ -1,4 +1,4 @@
-"""Known effects added to a real recording (issue 13, item 5), each by its simulator term's law for recordings
+"""Known effects added to a real recording, each by its simulator term's law for recordings
 (`into_recording`, effects.md), at the term's realistic sizes (effects-research.md section 4): the analysis must
 find them blind on top of the real noise."""
 

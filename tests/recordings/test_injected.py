@@ -1,4 +1,4 @@
-"""Known effects hidden in the real recordings (issue 13, item 5): the recording tests find them blind on top of the
+"""Known effects hidden in the real recordings: the recording tests find them blind on top of the
 real noise, with the right name, sensor and size; the untouched recordings give the same named set in at least
 90 % of resamples of their poses. Nothing here knows which recording it reads: every real recording in
 `tests/data` that imports goes through the same checks."""

@@ -1,4 +1,4 @@
-"""The scatter of leave-one-out refits set beside the deviations a fit states (issue 13.3), for the gyro and the
+"""The scatter of leave-one-out refits set beside the deviations a fit states, for the gyro and the
 norm-only accelerometer taken as one Gauss-Newton step from the full fit: the step must be the refit (exact for a
 linear model, within a few per cent for the gyro's), and the ratio must say 1 where the stated noise is the data's
 and more where the data scatter more than the fit admits."""

@@ -2,7 +2,7 @@
 (`tests/data/mpu6050-tomisuarez2`, PROVENANCE.md), run as a user would, beside the parameters its authors
 published for it. Four things of it were each refused before any fit (a preamble above the header, a 36.5 s
 initial rest, ten poses, a gyro rail reached by two samples); its gyro cannot be calibrated from it (poses the gyro
-sees turning, motions clipped), which imu_tk's own method held out confirms (README, "Beside the peers"), and its
+sees turning, motions clipped), which imu_tk's own method held out confirms (benchmarks/bench_recordings.py), and its
 twin is the accelerometer's alone."""
 
 from __future__ import annotations

@@ -103,7 +103,7 @@ def test_without_motions_between_the_pieces_a_turn_left_out_cannot_be_predicted(
 
 
 def test_calibrate_from_an_imported_ferraris_session_fits_the_faces_as_well_as_imucal(tmp_path):
-    """imucal's own regression result on its SI example fits |a| to 0.0148 m/s^2 RMS (issue 13): the faces'
+    """imucal's own regression result on its SI example fits |a| to 0.0148 m/s^2 RMS: the faces'
     tilts, modelled, bring ours there (taking the faces as exact left 0.0169)."""
     sess = tmp_path / "s"
     done = subprocess.run([*RIG, "import", "ferraris", "--csv", str(FERRARIS / "example_ferraris_session.csv"),

@@ -95,7 +95,7 @@ def test_a_coarse_step_of_the_accelerometer_is_named_quantisation_at_its_size(si
 def test_a_real_still_log_runs_from_the_command_line(tmp_path):
     """tomisuarez2's MPU-6050 left still for 7.5 minutes (PROVENANCE.md): imported and analysed as a user would.
     Every statistic that stays outside its band is listed as unexplained, and the extension brings at least 90 %
-    inside (issue 13's target for a real recording)."""
+    inside."""
     done = rig("import", "csv", str(DATA / "example_data_tinit_calc.csv"), "--header-line", "5", "--rate-hz", "100",
                "--accel", "ax,ay,az", "--gyro", "gx,gy,gz", "--out", str(tmp_path / "log"))
     assert done.returncode == 0, done.stderr

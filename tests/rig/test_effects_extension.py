@@ -1,4 +1,4 @@
-"""The extension point of the effects registry (issue 17, "Done when"): a new effect is one entry in `rig.effects`,
+"""The extension point of the effects registry: a new effect is one entry in `rig.effects`,
 its simulator-term file and its candidate-test file, and nothing else. A throwaway effect written into the two
 packages' search paths is simulated, drawn and found blind by the discrepancy analysis; and no module of the
 project outside those three places names an effect."""

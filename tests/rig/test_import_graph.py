@@ -1,4 +1,4 @@
-"""The project's import graph, built from the source (ast): dependencies point one way (DEVELOPERS.md, issue 17.1).
+"""The project's import graph, built from the source (ast): dependencies point one way (DEVELOPERS.md).
 
 Layers, bottom to top: drivers; the math and I/O of rig; fixtures (the simulated hardware and world); procedures;
 the application (rig/cli.py, rig/commands, rig/assembly.py). No module imports a layer above its own, no two

@@ -1,5 +1,5 @@
 """Rig configurations as lab engineers write them: each mistake is one message naming the file and the key,
-exit 2, before anything is created or moves (README, "Configuration", "Exit codes")."""
+exit 2, before anything is created or moves (docs/reference/configuration.md, exit-codes.md)."""
 
 import subprocess
 import sys

@@ -1,4 +1,4 @@
-"""`rig --help` lists the subcommands from the SUBCOMMANDS table without importing them (issue 17, start-up).
+"""`rig --help` lists the subcommands from the SUBCOMMANDS table without importing them.
 
 The table's short help must be what click would show from each command itself, at any terminal width, or the
 listing drifts from the commands; and listing must import none of the heavy packages a command may need.

@@ -32,7 +32,7 @@ def test_status_move_stop_estop_reset():
         assert run(srv.url, "stop").exit_code == 0
         assert run(srv.url, "estop").output.strip() == "e-stop latched"
         out = run(srv.url, "move", "1", "1")
-        assert out.exit_code == 3 and "e-stop latched" in out.output          # exit codes: README
+        assert out.exit_code == 3 and "e-stop latched" in out.output          # rig.exits.EXIT_TABLE
         assert f"rig table --url {srv.url} reset" in out.output and "reset()" not in out.output
         assert run(srv.url, "reset").exit_code == 0
         assert run(srv.url, "disable").exit_code == 0
