@@ -1,4 +1,4 @@
-"""rig.quaternions' numpy conversions against scipy's Rotation, the reference they replace on the start-up path."""
+"""rig.quaternions against scipy's Rotation: the project's convention (scalar first, w >= 0, stacks of any shape) kept."""
 
 from __future__ import annotations
 
