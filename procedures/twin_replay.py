@@ -21,7 +21,8 @@ from fixtures.world.model import AttitudeMotion, Environment, SensorModel
 from fixtures.world.recorded import HeldAttitude, RecordedAttitude
 from procedures.twin_motion import ReplayedAttitude, attitudes, unit
 from procedures.twin_draws import noise_dof
-from procedures.twin_noise import printed_decimals, sampled_rows, white_noise
+from procedures.twin_noise import sampled_rows, white_noise
+from procedures.twin_printed import Printed, printed_forms
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
@@ -43,7 +44,7 @@ class Replay:
     rate_hz: float
     source: str
     calibrate: Callable[[SessionData], RecordingCalibration]   # every replica's calibration: the recording's
-    decimals: dict[str, int] | None = None  # sensors in physical units the recording printed with so many decimals
+    printed: dict[str, Printed] | None = None  # how the recording wrote each sensor in physical units
     noise_dof: dict[str, float] | None = None  # degrees of freedom of each white noise level estimated from the poses
 
 
@@ -120,7 +121,7 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
                   replica_calibration(rec),
-                  printed_decimals(session, sensors), {name: noise_dof(session, name, rec) for name in sensors})
+                  printed_forms(session, sensors), {name: noise_dof(session, name, rec) for name in sensors})
 
 
 def replica_calibration(rec: RecordingCalibration) -> Callable[[SessionData], RecordingCalibration]:

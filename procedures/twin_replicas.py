@@ -1,6 +1,7 @@
 """A twin's replicas: one replica is the world (`fixtures.world`) sensing the replayed motion
 (`procedures.twin_replay`) with `y = inv(H) u + B` of the recording's own calibration, white noise of the
-recording's own size in every pose (`procedures.twin_noise`) and counts rounded where the recording is in counts;
+recording's own size in every pose (`procedures.twin_noise`), counts rounded where the recording is in counts and
+values in physical units written as the recording's were (`procedures.twin_printed`);
 effects of the vocabulary can be added to it (`effects`), which is how the extension is measured. Replicas are
 independent, so many run at once in forked worker processes (`procedures.fork_pool`, which leave stop signals to
 this one), each calibrated and reduced to its statistics there;
@@ -38,8 +39,8 @@ def replica(replay: Replay, seed: int, effects: Iterable = (), quiet: Collection
         y = world.sense(name, replay.t)
         if replay.units[name] == "counts":
             np.round(y, out=y)
-        elif name in (replay.decimals or {}):
-            np.round(y, replay.decimals[name], out=y)
+        elif name in (replay.printed or {}):
+            replay.printed[name].apply(y)
         y[replay.missing[name]] = np.nan
         raw[name] = y
     return recording_session(replay.t, raw, units=replay.units, gravity=replay.env.gravity,
