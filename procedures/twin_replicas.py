@@ -19,7 +19,7 @@ import numpy as np
 from fixtures.world.model import SensorModel, World
 from procedures.fork_pool import ForkPool, fork_available
 from procedures.twin_draws import drawn_level
-from procedures.twin_replay import Replay
+from procedures.twin_replay import HandAcceleration, Replay
 from rig.errors import CalibrationError
 from rig.io.recording import recording_session
 from rig.noise.statistics import recording_statistics
@@ -33,7 +33,10 @@ def replica(replay: Replay, seed: int, effects: Iterable = (), quiet: Collection
     sensors = {n: SensorModel(m.kind, m.H, m.B, np.zeros(3) if n in quiet
                               else drawn_level(m.noise_std, (replay.noise_dof or {}).get(n), seed, order.index(n)))
                for n, m in replay.sensors.items()}
-    world = World(None, sensors, env=replay.env, effects=list(effects), seed=seed, attitude=replay.attitude)
+    effects = list(effects)
+    if replay.hand is not None and "accel" in sensors:
+        effects.append(HandAcceleration("accel", t=replay.t, a=replay.hand))
+    world = World(None, sensors, env=replay.env, effects=effects, seed=seed, attitude=replay.attitude)
     raw = {}
     for name in replay.sensors:
         y = world.sense(name, replay.t)

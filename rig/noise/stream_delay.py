@@ -27,6 +27,7 @@ from rig.session_data import SessionData, filled
 
 TAU_MAX_S = 0.1          # the largest delay looked for: loggers reading chips in turn, filters' group delays
 SMOOTH_S = 0.08          # the Gaussian's standard deviation: tremor and noise out, a hand's motion (< 3 Hz) kept
+HAND_SMOOTH_S = 0.02     # the hand's acceleration in a twin: the gyro's noise out of its derivative, the motion kept
 MARGIN_S = 0.2           # of the still poses kept around a motion: its start and stop turn the direction too
 MIN_TURN_RAD = math.radians(20.0)   # a motion that turns the direction less says little about the delay
 MIN_MOTIONS = 6           # a delay is stated from this many motions on: its deviation is the motions' own scatter,
@@ -51,8 +52,7 @@ def recording_delays(session: SessionData, rec: RecordingCalibration) -> dict[st
     gyro = rec.sensors.get("gyro")
     if gyro is None or "gyro" not in session.raw:
         return {}
-    spans = [(rec.poses[i].rows[-1], rec.poses[j].rows[0]) for i, j in rec.carries]
-    spans += [(turn.rows[0], turn.rows[-1]) for turn in rec.turns]
+    spans = motion_spans(rec)
     if len(spans) < MIN_MOTIONS:
         return {}
     rate = gyro.apply(filled(session.raw["gyro"]))
@@ -66,10 +66,57 @@ def recording_delays(session: SessionData, rec: RecordingCalibration) -> dict[st
     return out
 
 
+@dataclass
+class MotionFit:
+    """One motion's delay (s) and, for the accelerometer, the lever arm (m, body frame) fitted at it; `motion` its
+    (first, last) row as given (the last row of the pose it leaves, the first of the one it reaches)."""
+
+    motion: tuple[int, int]
+    tau: float
+    arm: np.ndarray | None
+
+
 def direction_delays(t: np.ndarray, rate: np.ndarray, seen: np.ndarray, motions: list[tuple[int, int]], *,
                      lever: bool = False) -> list[float]:
+    """Each motion's delay (`motion_fits`)."""
+    return [fit.tau for fit in motion_fits(t, rate, seen, motions, lever=lever)]
+
+
+def hand_acceleration(session: SessionData, rec: RecordingCalibration) -> np.ndarray | None:
+    """(n, 3) the acceleration (m/s^2, body frame) each motion's fitted lever arm gives through the motion, at the
+    gyro's own rate as recorded (the motion a twin replays), its derivative taken through HAND_SMOOTH_S:
+    alpha x r + w x (w x r); none outside the motions. The fit's own smoothing (SMOOTH_S) here had been applied
+    twice in a replica, whose delay then sat 0.25 ms from its recording's; none, and the gyro's noise
+    differentiated filled the motions with noise of 0.1 m/s^2 that moved the accelerometer's value steps. What a twin's
+    accelerometer reads beside gravity where the recording's hand turned the unit about a point away from it; None
+    where the recording has no motions to fit."""
+    gyro = rec.sensors.get("gyro")
+    if gyro is None or "accel" not in rec.sensors or "gyro" not in session.raw:
+        return None
+    spans = motion_spans(rec)
+    if len(spans) < MIN_MOTIONS:
+        return None
+    rate = gyro.apply(filled(session.raw["gyro"]))
+    fits = motion_fits(session.t, rate, rec.sensors["accel"].apply(filled(session.raw["accel"])), spans, lever=True)
+    w = _smoothed(rate, _kernel(float(np.median(np.diff(session.t))), HAND_SMOOTH_S))
+    alpha = np.gradient(w, session.t, axis=0)
+    out = np.zeros_like(rate)
+    for fit in fits:
+        rows = slice(fit.motion[0] + 1, fit.motion[1])        # between the poses: a held pose reads none
+        out[rows] = np.cross(alpha[rows], fit.arm) + np.cross(w[rows], np.cross(w[rows], fit.arm))
+    return out
+
+
+def motion_spans(rec: RecordingCalibration) -> list[tuple[int, int]]:
+    """(first row, last row) of every motion between consecutive poses and of every turn."""
+    spans = [(rec.poses[i].rows[-1], rec.poses[j].rows[0]) for i, j in rec.carries]
+    return spans + [(turn.rows[0], turn.rows[-1]) for turn in rec.turns]
+
+
+def motion_fits(t: np.ndarray, rate: np.ndarray, seen: np.ndarray, motions: list[tuple[int, int]], *,
+                lever: bool = False) -> list[MotionFit]:
     """The gyro's delay (s) behind the stream `seen` (n, 3) of a vector fixed in the world (gravity's specific
-    force, the field) in each motion (first row, last row) that turns it by MIN_TURN_RAD or more; `rate` (n, 3) the
+    force, the field), and with `lever` the arm fitted at it, in each motion (first row, last row) that turns it by MIN_TURN_RAD or more; `rate` (n, 3) the
     calibrated rate in the same frame (rad/s), both without gaps. The motions' rows are widened by MARGIN_S and, for
     the filter and the shifts, by as much again as they reach, within the recording.
 
@@ -81,10 +128,8 @@ def direction_delays(t: np.ndarray, rate: np.ndarray, seen: np.ndarray, motions:
     n = len(t)
     dt = float(np.median(np.diff(t)))
     reach = max(int(math.ceil(TAU_MAX_S / dt)), 1)
-    sigma = SMOOTH_S / dt
-    half = int(math.ceil(4 * sigma))
-    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma) ** 2)
-    kernel /= kernel.sum()
+    kernel = _kernel(dt)
+    half = len(kernel) // 2
     margin = max(int(round(MARGIN_S / dt)), 1)
     shifts = np.arange(-reach, reach + 1)
     out = []
@@ -104,6 +149,7 @@ def direction_delays(t: np.ndarray, rate: np.ndarray, seen: np.ndarray, motions:
         shifted = np.stack([w[inner.start + k:inner.stop + k] for k in shifts])          # w(t + k dt)
         residual = dv + np.cross(shifted, v[inner])                                       # (K, m, 3)
         costs = np.sum(residual ** 2, axis=(1, 2))
+        arm = None
         if lever:                      # the least-squares arm at each shift: costs less what it explains
             alpha = np.gradient(w, t[rows], axis=0)
             M = _lever_matrix(w, alpha, np.gradient(alpha, t[rows], axis=0))
@@ -120,8 +166,17 @@ def direction_delays(t: np.ndarray, rate: np.ndarray, seen: np.ndarray, motions:
             continue                                    # no minimum within the reach
         c0, c1, c2 = costs[i - 1], costs[i], costs[i + 1]
         curve = c0 - 2 * c1 + c2
-        out.append(float((shifts[i] + (0.5 * (c0 - c2) / curve if curve > 0 else 0.0)) * dt))
+        tau = float((shifts[i] + (0.5 * (c0 - c2) / curve if curve > 0 else 0.0)) * dt)
+        out.append(MotionFit((first, last), tau, None if arm is None else arm[i]))
     return out
+
+
+def _kernel(dt: float, width_s: float = SMOOTH_S) -> np.ndarray:
+    """The Gaussian of `width_s` at a sample interval dt, out to four of its deviations, summing to one."""
+    sigma = max(width_s / dt, 0.5)
+    half = int(math.ceil(4 * sigma))
+    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma) ** 2)
+    return kernel / kernel.sum()
 
 
 def _lever_matrix(w: np.ndarray, alpha: np.ndarray, jerk: np.ndarray) -> np.ndarray:
