@@ -7,12 +7,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.stats import chi2
 
 from fixtures.world.effects.noise import HoldNotStill, ShapedNoise
 from fixtures.world.effects.vibration import Vibration
 from procedures.twin_cause import Cause
 from procedures.twin_draws import extension_level, level_dof
-from procedures.twin_noise import quiet_noise, quiet_poses, quiet_spread, sampled_rows
+from procedures.twin_noise import pose_spreads, quiet_noise, quiet_poses, quiet_spread, sampled_rows
 from procedures.twin_replay import Replay
 from procedures.twin_vibration import Split, rate_across_gravity, split_by_gyro
 from rig.calibration.recording import RecordingCalibration
@@ -31,12 +32,19 @@ def held_poses(session: SessionData, rec: RecordingCalibration, replay: Replay, 
     gyro's rate in the same poses gives (`vibration`, `procedures.twin_vibration`), each where it is so.
 
     The accelerometer's disturbance is vibration where its larger part is not the gyro's rotation and stands clear of
-    the periodograms' own scatter (VIBRATION_SIGMAS); then the rotation, if the gyro's spreads call for it, takes only
-    the share the gyro gives. Both give the accelerometer the quiet poses' noise beneath, so its disturbance is
-    split whether or not its own spreads were out: a hand's turn named from the gyro had taken a vibration the gyro
-    never saw for its own, with a rotation's low-frequency wander, and pushed the norm scatter out. `rate` is the gyro's rate in rad/s where the recording says it (`gyro_rate`): without
-    it (a gyro in counts that could not be calibrated, or none) nothing contradicts the accelerometer, and its
-    disturbance is the rotation it shows, as before."""
+    the periodograms' own scatter (VIBRATION_SIGMAS); the rotation then takes only the share the gyro gives, beside
+    the gyro's own disturbance where its poses' spreads differ beyond their sampling (`unequal_spreads`; they need
+    not be out of their band as a family: on the Xsens recording they are not, and the gyro's part brought back 85
+    statistics). Without a disturbed gyro, a vibration leaves no rotation: a clean gyro's quiet poses, chosen for
+    their low spread, had made the others look disturbed by 0.06 deg/s.
+
+    Both give the accelerometer the quiet poses' noise beneath, so its disturbance is split whether or not its own
+    spreads were out: a hand's turn named from the gyro had taken a vibration the gyro never saw for its own, with a
+    rotation's low-frequency wander, and pushed the norm scatter out.
+
+    `rate` is the gyro's rate in rad/s where the recording says it (`twin_vibration.gyro_rate`); without it (a gyro
+    in counts that could not be calibrated, or none) nothing contradicts the accelerometer, and its disturbance is
+    the rotation it shows."""
     quiet = {s: quiet_spread(session, rec, s) for s in ("gyro", "accel") if s in replay.sensors}
     excess = {s: np.array([_pose_excess(session, rec, s, p, quiet[s]) for p in rec.poses]) for s in quiet}
     split = split_by_gyro(session, rec, rate, replay.rate_hz) if "accel" in excess and rate is not None else None
@@ -52,14 +60,17 @@ def held_poses(session: SessionData, rec: RecordingCalibration, replay: Replay, 
     seen = {"gyro_rate_dps": None if rate is None else math.degrees(rate_across_gravity(session, rec, rate,
                                                                                         replay.rate_hz)),
             "tilt_rate_dps": math.degrees(tilt_rate(session, rec, replay.rate_hz)) if "accel" in quiet else None}
-    turning = "gyro.spread" in spreads_off or not vibrating
+    turning = ("gyro" in excess and ("gyro.spread" in spreads_off or unequal_spreads(session, rec, "gyro"))
+               or not vibrating)
     share = share if turning else 0.0          # no rotation named: the accelerometer's disturbance is all vibration
     causes = []
     if turning:
         turned = dict(excess, **({"accel": excess["accel"] * share} if "accel" in excess else {}))
-        causes.append(_turning(session, rec, replay, turned, spans, floor, seen))
+        causes.append(_turning(session, rec, replay, turned, spans,
+                               {s: f for s, f in floor.items() if not (vibrating and s == "accel")}, seen))
     if vibrating:
-        causes.append(_vibrating(rec, replay, excess["accel"] * (1.0 - share), spans, split,
+        spectrum = split.linear if turning else split.excess
+        causes.append(_vibrating(rec, replay, excess["accel"] * (1.0 - share), spans, split, spectrum,
                                  {s: f for s, f in floor.items() if s == "accel"}, seen))
     return causes
 
@@ -110,15 +121,15 @@ def _turning(session: SessionData, rec: RecordingCalibration, replay: Replay, ex
 
 
 def _vibrating(rec: RecordingCalibration, replay: Replay, excess: np.ndarray, spans: list, split: Split,
-               floor: dict, seen: dict) -> Cause:
-    """`vibration`: the accelerometer's excess in each pose and axis that the gyro's rotation does not give, with the
-    spectrum of that part (`Split.taps`), each replica's pose taking that of a pose drawn from the recording's own
-    (`drawn_poses`).
-    Its size is the RMS acceleration over the holds."""
+               spectrum: np.ndarray, floor: dict, seen: dict) -> Cause:
+    """`vibration`: the accelerometer's excess in each pose and axis that the gyro's rotation does not give, with its
+    `spectrum` per octave band (the part no rotation gives; all of the excess where no rotation is named), each
+    replica's pose taking that of a pose drawn from the recording's own (`drawn_poses`). Its size is the RMS
+    acceleration over the holds."""
     rms = np.sqrt(excess)                                   # (poses, 3) m/s^2
     magnitude = float(np.sqrt(np.mean(excess.sum(axis=1))))
-    taps = split.taps(replay.rate_hz)
-    band = split.band_hz()
+    taps = split.taps(replay.rate_hz, spectrum)
+    band = split.band_hz(spectrum)
 
     def make(seed):
         drawn = drawn_poses(seed, len(spans))
@@ -131,6 +142,23 @@ def _vibrating(rec: RecordingCalibration, replay: Replay, excess: np.ndarray, sp
                   "model": "each pose's acceleration beyond what the gyro's rotation gives, per axis, drawn from the "
                            "recording's own poses, with the spectrum of that part"},
                  ("accel.spread", "accel.adev", "accel.psd"), make, floor=dict(floor))
+
+
+def unequal_spreads(session: SessionData, rec: RecordingCalibration, sensor: str, alpha: float = 0.01) -> bool:
+    """Whether the poses' spreads of `sensor` differ beyond what one white level gives their samples, on any axis:
+    Bartlett's test of equal variances (Snedecor and Cochran, "Statistical Methods", 8th ed., 1989, eq. 13.13.1),
+    the three axes' p-values Bonferroni-corrected at alpha."""
+    spreads, n = pose_spreads(session, rec, sensor)
+    use = n > 2
+    if use.sum() < 2:
+        return False
+    nu = (n[use] - 1.0)[:, None]
+    var = np.maximum(spreads[use] ** 2, 1e-300)
+    pooled = np.sum(nu * var, axis=0) / nu.sum()
+    k = int(use.sum())
+    correction = 1 + (np.sum(1 / nu[:, 0]) - 1 / nu.sum()) / (3 * (k - 1))
+    statistic = (nu.sum() * np.log(pooled) - np.sum(nu * np.log(var), axis=0)) / correction
+    return bool(np.min(chi2.sf(statistic, k - 1)) * 3 < alpha)
 
 
 def drawn_poses(seed: int, poses: int) -> np.ndarray:

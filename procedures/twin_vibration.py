@@ -55,9 +55,10 @@ class Split:
         sd = float(np.sqrt(np.sum(self.excess_sd ** 2)))
         return float(self.linear.sum() / sd) if sd > 0 else 0.0
 
-    def band_hz(self, share: float = 0.8) -> tuple[float, float]:
-        """The frequencies between which the central `share` of the linear part lies (log-interpolated in bands)."""
-        part = self.linear
+    def band_hz(self, part: np.ndarray | None = None, share: float = 0.8) -> tuple[float, float]:
+        """The frequencies between which the central `share` of `part` (per band; the linear part by default) lies,
+        log-interpolated within the bands."""
+        part = self.linear if part is None else part
         if part.sum() <= 0:
             return float(self.edges[0]), float(self.edges[-1])
         cumulative = np.r_[0.0, np.cumsum(part)] / part.sum()
@@ -66,11 +67,12 @@ class Split:
         return float(math.exp(lo)), float(math.exp(hi))
 
 
-    def taps(self, rate_hz: float, length: int = 256) -> np.ndarray:
-        """A linear-phase FIR whose power response is the linear part's spectrum (flat within each band): white
-        noise through it has that part's spectral shape. 256 taps resolve the lowest octaves at 100 Hz."""
+    def taps(self, rate_hz: float, part: np.ndarray | None = None, length: int = 256) -> np.ndarray:
+        """A linear-phase FIR whose power response is the spectrum `part` (per band, flat within each; the linear
+        part by default): white noise through it has that spectral shape. 256 taps resolve the lowest octaves at
+        100 Hz."""
         freq = np.fft.rfftfreq(length, 1.0 / rate_hz)
-        density = self.linear / np.diff(self.edges)
+        density = (self.linear if part is None else part) / np.diff(self.edges)
         band = np.clip(np.searchsorted(self.edges, freq, side="right") - 1, 0, len(density) - 1)
         amplitude = np.where(freq >= self.edges[0], np.sqrt(density[band]), 0.0)
         if not amplitude.any():

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from hand_synth import hand_recording, hand_session  # noqa: E402
+from hand_synth import Hand, hand_recording, hand_session  # noqa: E402
 
 from procedures.twin_analysis import analyse_twin  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
@@ -68,6 +68,22 @@ def test_a_vibration_the_gyro_does_not_see_is_named_vibration_not_a_turn(seed, v
     assert len(spreads) >= 6, s["outside_before"]
     assert len(set(spreads) & set(s["outside_after"])) <= 3, s["outside_after"]
     assert not [n for n in found["pushes_out"] if n.startswith("accel.norm")], found["pushes_out"]
+
+
+def test_a_vibration_is_told_by_a_gyro_in_rad_s_that_could_not_be_calibrated():
+    """A logger that records only while the unit rests: no motion to calibrate the gyro by, so only the poses are
+    analysed. Its accelerometer shakes in the holds (0.03 m/s^2 at 1-8 Hz) and its gyro, in rad/s, reads no turn
+    there: the accelerometer's disturbance is vibration. Before the gyro was asked it was named a pose not still,
+    on the accelerometer, at the rate it would have turned gravity (0.8-1.2 deg/s on a user's recordings whose gyro
+    read 0.013)."""
+    hand = hand_recording(6, vibration=(0.03, 1.0, 8.0))
+    rows = hand.pose >= 0
+    session = hand_session(Hand(hand.t[rows], hand.accel[rows], hand.gyro[rows], None, hand.pose[rows]))
+    report = analyse_twin(session, replicas=40, attribution_replicas=6)
+    assert set(report["not_analysed"]) == {"gyro"}, report["not_analysed"]
+    named = causes(report)
+    assert "vibration" in named and "hold_not_still" not in named, sorted(named)
+    assert named["vibration"]["params"]["gyro_rate_dps"] < 0.25 * named["vibration"]["params"]["tilt_rate_dps"]
 
 
 @pytest.mark.parametrize("seed", [1, 3])
