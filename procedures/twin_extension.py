@@ -19,7 +19,7 @@ from fixtures.world.effects.noise import (BiasInstability, Quantisation, RateRan
                                           peak_density_ratio)
 from procedures.twin_bands import band_chance
 from procedures.twin_cause import Cause
-from procedures.twin_hold import hold_not_still
+from procedures.twin_hold import held_poses
 from procedures.twin_draws import extension_level, level_dof
 from procedures.twin_noise import pooled_noise, quiet_noise, sampled_rows
 from procedures.twin_replay import Replay
@@ -67,9 +67,10 @@ def family(name: str) -> str:
 
 
 def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, real: dict, bands: dict,
-            off: set[str], replicas: int) -> list[Cause]:
+            off: set[str], replicas: int, rate: np.ndarray | None = None) -> list[Cause]:
     """The effects the real recording shows, each fitted from it, where a family of statistics it governs is out of
-    band beyond chance (`off_families`)."""
+    band beyond chance (`off_families`). `rate`: the gyro's rate in rad/s (`twin_vibration.gyro_rate`), which a
+    disturbance the accelerometer shows must agree with to be a rotation (`twin_hold.held_poses`)."""
     causes, floors = [], {}
     longest = max(rec.poses, key=lambda p: len(p.rows))
     fams = off_families(real, bands, off, replicas)
@@ -93,7 +94,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
             shaped = peak_density_ratio(taps).max() > white_peak_chance(len(still), replay.rate_hz)
         if q is not None:
             # the noise ahead of the rounding the step implies; where poses are not still, the quiet poses' (the
-            # disturbance of the others is the hold_not_still cause's, not counted twice)
+            # disturbance of the others is the held poses' causes', not counted twice)
             white = (quiet_noise if not_still else pooled_noise)(session, rec, sensor, q)
             nu = level_dof(session, rec, sensor, quiet=not_still)
             if not_still:
@@ -146,7 +147,7 @@ def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, rea
         for cause in causes[first:]:
             cause.base_unit = rec.sensors[sensor].extra.get(REPORT_UNIT_KEY)
     if not_still:
-        causes.append(hold_not_still(session, rec, replay, floors))
+        causes += held_poses(session, rec, replay, floors, spreads_off, rate)
     return causes
 
 

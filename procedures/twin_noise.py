@@ -1,6 +1,5 @@
 """The white noise and rounding of a twin's replicas, as the recording shows them: each sensor's noise level pooled
-over the recording's static poses, the level of the poses a hand left alone, and the decimals a recording in
-physical units was printed with (how precisely those levels are known, and what one replica draws from them:
+over the recording's static poses and the level of the poses a hand left alone (how precisely those levels are known, and what one replica draws from them:
 `procedures.twin_draws`). Apart from the replay's motion (`procedures.twin_replay`): these say how the recording's noise looks, not
 where the fixture was."""
 
@@ -12,7 +11,6 @@ import numpy as np
 
 from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration
-from rig.io.decimals import written_decimals
 from rig.noise.rounding import noise_sigma_at
 from rig.noise.still import sample_noise
 from rig.noise.still_log import is_still_log_calibration
@@ -28,16 +26,6 @@ def white_noise(session: SessionData, sensor: str, rec: RecordingCalibration) ->
     if session.meta.get("units", {}).get(sensor, "counts") == "counts":
         return noise_sigma(stds)
     return np.sqrt(np.mean(stds ** 2, axis=0))
-
-
-def printed_decimals(session: SessionData, sensors: Iterable[str]) -> dict[str, int]:
-    """Sensors in physical units whose every value has at most d decimals: the file the recording came from was
-    printed so (a CSV export), and its replicas are printed alike. Without it the value step of a stream written
-    with 6 decimals is 1e-6 in the recording and a fraction of that in the replicas' unrounded values, and the
-    twin named quantisation on every such sensor of a clean recording."""
-    units = session.meta.get("units", {})
-    found = {s: written_decimals(session.raw[s]) for s in sensors if units.get(s, "counts") != "counts"}
-    return {s: d for s, d in found.items() if d is not None}
 
 
 def quiet_poses(session: SessionData, rec: RecordingCalibration, sensor: str) -> np.ndarray:

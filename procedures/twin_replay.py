@@ -12,20 +12,23 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
 
+from fixtures.world.effects_base import Effect
 from fixtures.world.model import AttitudeMotion, Environment, SensorModel
 from fixtures.world.recorded import HeldAttitude, RecordedAttitude
 from procedures.twin_motion import ReplayedAttitude, attitudes, unit
 from procedures.twin_draws import noise_dof
-from procedures.twin_noise import printed_decimals, sampled_rows, white_noise
+from procedures.twin_noise import sampled_rows, white_noise
+from procedures.twin_printed import Printed, printed_forms
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
 from rig.noise.still_log import is_still_log_calibration, still_log_calibration
+from rig.noise.stream_delay import hand_acceleration
 from rig.session_data import SessionData, filled
 
 
@@ -43,8 +46,26 @@ class Replay:
     rate_hz: float
     source: str
     calibrate: Callable[[SessionData], RecordingCalibration]   # every replica's calibration: the recording's
-    decimals: dict[str, int] | None = None  # sensors in physical units the recording printed with so many decimals
+    printed: dict[str, Printed] | None = None  # how the recording wrote each sensor in physical units
     noise_dof: dict[str, float] | None = None  # degrees of freedom of each white noise level estimated from the poses
+    hand: np.ndarray | None = None        # (n, 3) m/s^2 the accelerometer reads beside gravity through the motions
+
+
+@dataclass
+class HandAcceleration(Effect):
+    """The recording's own hand acceleration through its motions (`rig.noise.stream_delay.hand_acceleration`: the
+    lever arm fitted in each motion), read by every replica's accelerometer beside gravity: part of the replayed
+    motion, as the rate is, not a cause. Without it the replicas' accelerometers read gravity alone through a hand's
+    motions, and a recording's delay between gyro and accelerometer was judged against a band that knew nothing of
+    the lever arm its estimate fits (a clean hand turned about a point 15 cm away fell outside)."""
+
+    t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    a: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def input(self, ctx, u):
+        if ctx.t.shape == self.t.shape and np.array_equal(ctx.t, self.t):
+            return u + self.a
+        return u + np.stack([np.interp(ctx.t, self.t, self.a[:, k], left=0.0, right=0.0) for k in range(3)], axis=1)
 
 
 def twin_view(session: SessionData, rec: RecordingCalibration) -> SessionData:
@@ -120,7 +141,8 @@ def reconstruct(session: SessionData, rec: RecordingCalibration,
                   session.meta.get("segments") or pose_segments(session, rec),
                   float(session.sample_rate_hz or 1.0 / np.median(np.diff(t))), session.source,
                   replica_calibration(rec),
-                  printed_decimals(session, sensors), {name: noise_dof(session, name, rec) for name in sensors})
+                  printed_forms(session, sensors), {name: noise_dof(session, name, rec) for name in sensors},
+                  None if held else hand_acceleration(session, rec))
 
 
 def replica_calibration(rec: RecordingCalibration) -> Callable[[SessionData], RecordingCalibration]:

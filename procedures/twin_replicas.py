@@ -1,6 +1,7 @@
 """A twin's replicas: one replica is the world (`fixtures.world`) sensing the replayed motion
 (`procedures.twin_replay`) with `y = inv(H) u + B` of the recording's own calibration, white noise of the
-recording's own size in every pose (`procedures.twin_noise`) and counts rounded where the recording is in counts;
+recording's own size in every pose (`procedures.twin_noise`), counts rounded where the recording is in counts and
+values in physical units written as the recording's were (`procedures.twin_printed`);
 effects of the vocabulary can be added to it (`effects`), which is how the extension is measured. Replicas are
 independent, so many run at once in forked worker processes (`procedures.fork_pool`, which leave stop signals to
 this one), each calibrated and reduced to its statistics there;
@@ -18,7 +19,7 @@ import numpy as np
 from fixtures.world.model import SensorModel, World
 from procedures.fork_pool import ForkPool, fork_available
 from procedures.twin_draws import drawn_level
-from procedures.twin_replay import Replay
+from procedures.twin_replay import HandAcceleration, Replay
 from rig.errors import CalibrationError
 from rig.io.recording import recording_session
 from rig.noise.statistics import recording_statistics
@@ -32,14 +33,17 @@ def replica(replay: Replay, seed: int, effects: Iterable = (), quiet: Collection
     sensors = {n: SensorModel(m.kind, m.H, m.B, np.zeros(3) if n in quiet
                               else drawn_level(m.noise_std, (replay.noise_dof or {}).get(n), seed, order.index(n)))
                for n, m in replay.sensors.items()}
-    world = World(None, sensors, env=replay.env, effects=list(effects), seed=seed, attitude=replay.attitude)
+    effects = list(effects)
+    if replay.hand is not None and "accel" in sensors:
+        effects.append(HandAcceleration("accel", t=replay.t, a=replay.hand))
+    world = World(None, sensors, env=replay.env, effects=effects, seed=seed, attitude=replay.attitude)
     raw = {}
     for name in replay.sensors:
         y = world.sense(name, replay.t)
         if replay.units[name] == "counts":
             np.round(y, out=y)
-        elif name in (replay.decimals or {}):
-            np.round(y, replay.decimals[name], out=y)
+        elif name in (replay.printed or {}):
+            replay.printed[name].apply(y)
         y[replay.missing[name]] = np.nan
         raw[name] = y
     return recording_session(replay.t, raw, units=replay.units, gravity=replay.env.gravity,

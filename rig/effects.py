@@ -73,7 +73,9 @@ EFFECTS: dict[str, EffectSpec] = {e.name: e for e in (
     _noise("bias_instability", TRIADS, "{unit}", "flicker (1/f) noise of the bias"),
     _noise("rate_random_walk", TRIADS, "{unit} per sqrt(s)", "the bias integrates white noise"),
     _noise("quantisation", TRIADS, "{unit}", "coarse counts that the noise does not dither"),
-    _noise("hold_not_still", ("accel", "gyro"), "deg/s", "a static pose that moves (hand tremor, a soft mount)"),
+    _noise("hold_not_still", ("accel", "gyro"), "deg/s", "a static pose that turns (hand tremor, a soft mount)"),
+    _noise("vibration", ("accel",), "m/s^2", "linear acceleration of the holds that the gyro does not see (a motor, "
+           "a fan, a vehicle), or a noise of the accelerometer's own in some poses"),
     _noise("saturation", TRIADS, "percent", "the output clips at its range"),
     _noise("warm_up", TRIADS, "{unit}", "the bias settling as the unit comes to temperature after power-on"),
 )}

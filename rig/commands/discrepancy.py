@@ -117,13 +117,17 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     tested = {(t["effect"], t["sensor"]): t for t in twin["model_tests"]}
     findings = [{"effect": c["effect"], "sensor": c["sensor"], "magnitude": c["magnitude"], "unit": c["unit"],
                  "uncertainty": tested.get((c["effect"], c["sensor"]), {}).get("uncertainty"), "heldout_rms_before": None, "heldout_rms_after": None, "heldout_unit": None,
-                 "evidence": {"params": c["params"], "statistics_brought_back": c["brings_back"]}}
+                 "evidence": {"params": c["params"], "statistics_brought_back": c["brings_back"],
+                              "statistics_pushed_out": c["pushes_out"]}}
                 for c in twin["causes"] if c["brings_back"]]
     summary = twin["summary"]
     report = {"schema": "rig-discrepancy/1", "session": str(session.meta.get("session", session.source)),
               "findings": findings,
               "candidates": [{"effect": c["effect"], "sensor": c["sensor"], "score": float(len(c["brings_back"])),
-                              "significant": bool(c["brings_back"])} for c in twin["causes"]],
+                              "pushed_out": len(c["pushes_out"]), "kept": kept,
+                              "significant": bool(kept and c["brings_back"])}
+                             for kept, group in ((True, twin["causes"]), (False, twin.get("dropped", [])))
+                             for c in group],
               "unexplained": twin["unexplained"], "not_analysed": sorted(twin["not_analysed"]), "twin": twin}
     files = []
     try:
@@ -146,9 +150,12 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
         click.echo(f"model test {t['effect']} on {t['sensor']}: {t['magnitude']:.4g} +/- {t['uncertainty']:.2g} {t['unit']}, "
                    f"p {t['p_holm']:.2g} after Holm: {'significant' if t['significant'] else 'not significant'}")
     for c in twin["causes"]:
-        back = len(c["brings_back"])
+        back, out = len(c["brings_back"]), len(c["pushes_out"])
         click.echo(f"{c['effect']} on {c['sensor']}: {c['magnitude']:.4g} {c['unit']}; brings back {back} "
-                   f"statistic{'s' if back != 1 else ''}")
+                   f"statistic{'s' if back != 1 else ''}" + (f", pushes {out} out" if out else ""))
+    for c in twin.get("dropped", []):
+        click.echo(f"not kept: {c['effect']} on {c['sensor']} ({c['magnitude']:.4g} {c['unit']}): brought back "
+                   f"{len(c['brings_back'])}, pushed out {len(c['pushes_out'])}")
     change = twin.get("heldout_change")
     if change:
         b, a = change["before"], change["after"]
@@ -179,10 +186,23 @@ def twin_markdown(report: dict, files: list[Path]) -> str:
              "| | inside the band |", "| --- | --- |",
              f"| the simulator's white noise | {s['inside_before']}/{n} ({100 * s['inside_before'] / n:.0f} %) |",
              f"| extended with what the recording shows | {s['inside_after']}/{n} ({100 * s['inside_after'] / n:.0f} %) |",
-             "", "## Named causes", "", "| effect | sensor | magnitude | statistics brought back |",
-             "| --- | --- | --- | --- |"]
-    lines += [f"| {c['effect']} | {c['sensor']} | {c['magnitude']:.4g} {c['unit']} | {len(c['brings_back'])} |"
-              for c in twin["causes"]] or ["| none | | | |"]
+             "", "## Named causes", "",
+             "A cause is kept where it brings more statistics back inside their band than it pushes out of it.", "",
+             "| effect | sensor | magnitude | statistics brought back | statistics pushed out |",
+             "| --- | --- | --- | --- | --- |"]
+    lines += [f"| {c['effect']} | {c['sensor']} | {c['magnitude']:.4g} {c['unit']} | {len(c['brings_back'])} | "
+              f"{len(c['pushes_out'])} |" for c in twin["causes"]] or ["| none | | | | |"]
+    dropped = twin.get("dropped", [])
+    if dropped:
+        lines += ["", "## Not kept", "", "| effect | sensor | magnitude | statistics brought back | statistics pushed out |",
+                  "| --- | --- | --- | --- | --- |"]
+        lines += [f"| {c['effect']} | {c['sensor']} | {c['magnitude']:.4g} {c['unit']} | {len(c['brings_back'])} | "
+                  f"{len(c['pushes_out'])} |" for c in dropped]
+    for kept, group in (("", twin["causes"]), (" (not kept)", dropped)):
+        for c in group:
+            lines += ["", f"### {c['effect']} on {c['sensor']}{kept}", "",
+                      "Brought back inside: " + (", ".join(f"`{n}`" for n in c["brings_back"]) or "none") + ".", "",
+                      "Pushed out: " + (", ".join(f"`{n}`" for n in c["pushes_out"]) or "none") + "."]
     for sensor, why in twin["not_analysed"].items():
         lines += ["", f"**Not analysed: {sensor}**: {plain(why)}; nothing is claimed about it, and the twin replays "
                   "the poses alone."]

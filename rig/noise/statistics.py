@@ -4,8 +4,10 @@ Per sensor: the spread within each static pose, the pose means against the model
 the gyro's calibrated rate), their scatter from pose to pose, the Allan deviation and the spectrum of the longest
 pose, the step between the stream's distinct values (the grid's, where they lie on one), the share of samples
 pinned at an extreme (the pose means only where there are several: a still log's one mean is what its
-calibration was made from); per turn or motion the gyro's angle residual; and how the calibration's own standard
-deviations compare with the scatter of leave-one-pose-out refits. The same function runs on the real recording
+calibration was made from); per turn or motion the gyro's angle residual; the gyro's delay behind the accelerometer
+and the magnetometer through the motions (`rig.noise.stream_delay`: what a turn's angle or a carried gravity, which
+integrate through a delay, cannot show); and how the calibration's own standard deviations compare with the
+scatter of leave-one-pose-out refits. The same function runs on the real recording
 and on every replica, through the same calibration, so a difference is the world's, not the pipeline's.
 """
 
@@ -19,6 +21,7 @@ from rig.calibration.recording_vector import pose_stats
 from rig.calibration.saturation import distinct as _distinct, pinned_ends
 from rig.errors import CalibrationError
 from rig.noise.allan import allan_deviation
+from rig.noise.stream_delay import recording_delays
 from rig.session_data import SessionData
 
 AXES = "xyz"
@@ -69,6 +72,8 @@ def recording_statistics(session: SessionData, rec: RecordingCalibration) -> dic
             out[f"gyro.carry_error[{rec.poses[i].name}->{rec.poses[j].name}]"] = float(err)
     for sensor, ratio in loo_scatter_ratios(session, rec).items():
         out[f"{sensor}.loo_scatter_to_predicted"] = ratio
+    for sensor, delay in recording_delays(session, rec).items():
+        out[f"gyro.lag_behind_{sensor}"] = delay.value
     return out
 
 

@@ -11,9 +11,8 @@ from scipy import stats
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.candidates_base import Candidate, candidate_test
 from rig.discrepancy.recording_base import Test, recording_test, subsample
-from rig.session_data import SessionData, filled
-
-TAU_MAX_S = 0.1               # s: the largest delay looked for (sample-clock offsets of loggers, filters' delays)
+from rig.noise.stream_delay import recording_delays, robust_delay
+from rig.session_data import SessionData
 
 
 @candidate_test("time_offset", needs=("moves",))
@@ -26,66 +25,28 @@ def time_offset(sensor: str) -> Candidate:
 @recording_test("time_offset")
 def in_a_recording(session: SessionData, rec: RecordingCalibration, table: dict,
                     rng: np.random.Generator | None = None) -> list[Test]:
-    """The gyro's delay against the accelerometer, one estimate per motion, tested across motions (t test).
-
-    In a motion the gravity direction seen by the body turns as g' = -w x g; the gyro read tau late makes
-    that hold only for w(t + tau). Each motion's tau minimises sum |g' + w(t + tau) x g|^2 (both streams
-    smoothed alike, so the filter adds no lag); the motions' estimates, independent, give the mean and its
-    standard error. A summed rotation (carried gravity, a turn's angle) cannot see tau: it integrates through.
-    """
-    if "gyro" not in rec.sensors or "accel" not in rec.sensors:
+    """The gyro's delay behind the accelerometer (the reference), one estimate per motion from the turning gravity
+    direction, the motions' robust mean tested against zero (`rig.noise.stream_delay`: a hand's linear
+    acceleration fitted as a lever arm in each motion, Huber's mean of the motions, its t). A summed rotation (carried
+    gravity, a turn's angle) cannot see the delay: it integrates through. Where a magnetometer is calibrated too,
+    the field's direction gives the gyro's delay behind it, stated beside (with the magnetometer's own delay behind
+    the accelerometer, their difference); where gravity turns too little in the motions, the field's is the test.
+    With `rng`, the motions are subsampled (80 %, without replacement)."""
+    delays = recording_delays(session, rec)
+    if rng is not None:
+        delays = {s: d for s, d in ((s, robust_delay(list(rng.choice(d.per_motion, subsample(len(d.per_motion)),
+                                                                     replace=False)))) for s, d in delays.items())
+                  if d is not None}
+    reference = "accel" if "accel" in delays else "mag" if "mag" in delays else None
+    if reference is None:
         return []
-    dt = float(np.median(np.diff(session.t)))
-    taus = []
-    for rows in _motions(session, rec):
-        tau = _motion_delay(session, rec, rows, dt)
-        if tau is not None:
-            taus.append(tau)
-    if len(taus) < 4:
-        return []
-    taus = np.array(taus) if rng is None else rng.choice(taus, subsample(len(taus)), replace=False)
-    mean, se = float(taus.mean()), float(taus.std(ddof=1) / np.sqrt(len(taus)))
-    p = float(2 * stats.t.sf(abs(mean) / se, len(taus) - 1)) if se > 0 else 1.0
-    return [Test("time_offset", "gyro", p, mean, se,
-                 {"per_motion_s": taus.tolist(), "positive": "gyro lags the accelerometer"})]
-
-
-def _motions(session: SessionData, rec: RecordingCalibration) -> list[np.ndarray]:
-    """Rows of every motion between consecutive poses and of every turn, with a little of the stills around."""
-    margin = max(round(0.2 / float(np.median(np.diff(session.t)))), 1)
-    spans = [(rec.poses[i].rows[-1] - margin, rec.poses[j].rows[0] + margin) for i, j in rec.carries]
-    spans += [(t.rows[0] - margin, t.rows[-1] + margin) for t in rec.turns]
-    n = len(session.t)
-    return [np.arange(max(a, 0), min(b, n - 1) + 1) for a, b in spans if b - a > 4 * margin]
-
-
-def _motion_delay(session: SessionData, rec: RecordingCalibration, rows: np.ndarray, dt: float) -> float | None:
-    t = session.t[rows]
-    a = rec.sensors["accel"].apply(filled(session.raw["accel"][rows]))
-    w = rec.sensors["gyro"].apply(filled(session.raw["gyro"][rows]))
-    width = max(round(0.05 / dt), 1)
-    a, w = _smooth(a, width), _smooth(w, width)
-    g = a / np.linalg.norm(a, axis=1, keepdims=True)
-    dg = np.gradient(g, t, axis=0)
-    if np.sum(np.linalg.norm(np.cross(w, g), axis=1) * dt) < math.radians(20):
-        return None                                    # the motion barely turns gravity: no information on tau
-    reach = math.ceil(TAU_MAX_S / dt)
-    inner = slice(reach, len(t) - reach)
-    if inner.stop - inner.start < 10:
-        return None
-    grid = np.arange(-reach, reach + 1) * dt
-    costs = []
-    for tau in grid:
-        w_tau = np.stack([np.interp(t[inner] + tau, t, w[:, k]) for k in range(3)], axis=1)
-        costs.append(float(np.sum((dg[inner] + np.cross(w_tau, g[inner])) ** 2)))
-    i = int(np.argmin(costs))
-    if i in (0, len(grid) - 1):
-        return None                                    # no minimum inside the scan
-    c0, c1, c2 = costs[i - 1], costs[i], costs[i + 1]
-    curve = c0 - 2 * c1 + c2
-    return float(grid[i] + (0.5 * (c0 - c2) / curve * dt if curve > 0 else 0.0))
-
-
-def _smooth(y: np.ndarray, width: int) -> np.ndarray:
-    kernel = np.ones(width) / width
-    return np.stack([np.convolve(y[:, k], kernel, mode="same") for k in range(3)], axis=1)
+    found = delays[reference]
+    p = float(2 * stats.t.sf(abs(found.value) / found.sd, found.dof)) if found.sd > 0 else 1.0
+    params = {"tau_s": found.value, "reference": reference, "per_motion_s": found.per_motion,
+              "positive": "gyro lags the accelerometer" if reference == "accel" else "gyro lags the magnetometer"}
+    if reference == "accel" and "mag" in delays:
+        mag = delays["mag"]
+        params.update({"behind_mag_s": mag.value, "behind_mag_sd_s": mag.sd,
+                       "mag_behind_accel_s": found.value - mag.value,
+                       "mag_behind_accel_sd_s": math.hypot(found.sd, mag.sd)})
+    return [Test("time_offset", "gyro", p, found.value, found.sd, params)]
