@@ -29,7 +29,7 @@ import numpy as np
 
 from procedures.orchestrator import RigSpec, SessionOrchestrator
 from rig import planner
-from rig.commands.calibrate import build_rig
+from rig.commands.common import build_rig
 from rig.config import load_config
 from rig.pipeline import calibrate_session
 from rig.schedule import plan_orientations

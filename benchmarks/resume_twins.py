@@ -25,7 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from procedures.orchestrator import RigSpec, SessionOrchestrator  # noqa: E402
-from rig.commands.calibrate import build_rig  # noqa: E402
+from rig.commands.common import build_rig  # noqa: E402
 from rig.config import load_config  # noqa: E402
 from rig.errors import StopSignal  # noqa: E402
 from rig.store import SessionStore  # noqa: E402

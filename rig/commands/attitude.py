@@ -50,7 +50,7 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
     from rig.attitude.evaluate import gyro_gaps, session_rows
     from rig.attitude.peers import PEERS
     from rig.errors import RigError
-    from rig.commands.sessions import read_any_session
+    from rig.commands.common import read_any_session
     from rig.io.calibration_json import read_calibration, triads_from_calibration
 
     try:
@@ -102,7 +102,7 @@ def attitude(session_dir, calibration, json_out, out, mag_measurement, no_peers,
 def validate(sim, config_path, seed, calibration, method, mag_measurement, out, no_plots, no_still_detection):
     """Calibrate, run the dynamic trajectory on the same unit, and write the Table III attitude report."""
     from procedures.validation import validate_on_rig
-    from rig.commands.calibrate import build_rig
+    from rig.commands.common import build_rig
     from rig.config import load_config
     from rig.errors import RigError
 

@@ -39,7 +39,7 @@ SENSORS = ("accel", "gyro", "mag")
 def discrepancy(session_dir, json_out, report_dir, no_replay, replicas, heldout):
     """Fit the linear model, test every candidate effect, report the ones the data support."""
     from procedures.replay import replay_comparison
-    from rig.commands.sessions import read_any_session, session_kind
+    from rig.commands.common import read_any_session, session_kind
     from rig.discrepancy import analyze
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic

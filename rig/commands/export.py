@@ -64,7 +64,7 @@ def unfinished(folder: Path, meta: dict, what: str, holds: int) -> str | None:
 @click.option("--force", is_flag=True, help="Replace an interchange session already in the --to folder.")
 def export(session, to, force):
     """Write the session in SESSION as meta.json + samples.csv in the folder given by --to."""
-    from rig.commands.sessions import session_from_store
+    from rig.commands.common import session_from_store
     from rig.errors import RigError
     from rig.io.session_writer import write_session
     from rig.store import SessionStore

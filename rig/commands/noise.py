@@ -42,7 +42,7 @@ def noise(session_dir, start_s, end_s, window, keep_warm_up, json_out):
     holds; no calibration is needed. A term the record is too short to determine is said so. A warm-up at the
     start is named and, unless --keep-warm-up, left out of the analysis."""
     from fixtures.world.effects.warm_up import WarmUp
-    from rig.commands.sessions import read_any_session
+    from rig.commands.common import read_any_session
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
     from rig.noise.analysis import analyse_still

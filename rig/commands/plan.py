@@ -13,6 +13,7 @@ from pathlib import Path
 
 import click
 
+from rig.commands.common import rig_config
 from rig.exits import CommandError, Exit, FiniteFloat, plain
 
 BUDGET_HELP = "Plan for this many seconds of table time (the most accurate plan that fits)."
@@ -54,7 +55,7 @@ def noise_of_session(folder: Path):
     import numpy as np
 
     from rig import planner
-    from rig.commands.sessions import read_any_session
+    from rig.commands.common import read_any_session
     from rig.errors import RigError
 
     cal_path = folder / "calibration.json"
@@ -104,13 +105,12 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
     import time
 
     from procedures.session import check_plan, plan_for
-    from rig.commands.calibrate import _config
 
     if budget_s is not None and target_h_pct is not None:
         raise click.UsageError("give --budget-s or --target-h-pct, not both")
     refuse_orientations_with_planner(orientations, budget_s, target_h_pct)
     started = time.perf_counter()
-    config, chosen, default, noise = planned_config(_config(config_path, orientations), budget_s, target_h_pct,
+    config, chosen, default, noise = planned_config(rig_config(config_path, orientations), budget_s, target_h_pct,
                                                     noise_from)
     planning_s = time.perf_counter() - started
     schedule = plan_for(config)

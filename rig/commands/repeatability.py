@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from rig.commands.common import rig_config, run_session_to
+
 
 @click.command()
 @click.option("--sim", is_flag=True, help="Simulated rig: the same simulated unit, new noise every trial.")
@@ -18,13 +20,12 @@ import click
 @click.option("--orientations", type=click.IntRange(9, 64), default=None)
 def repeatability(sim, config_path, trials, out, seed, method, orientations):
     """Run TRIALS sessions on one unit and report the mean and standard deviation of B and H (paper Fig. 7)."""
-    from rig.commands.calibrate import _config, run_session_to
     from rig.exits import Exit
     from rig.report.repeatability import write_repeatability_report
 
     if not sim and not config_path:
         raise click.UsageError("give --sim or --config rig.toml")
-    config = _config(config_path, orientations)
+    config = rig_config(config_path, orientations)
     runs, rejected = [], 0
     for k in range(trials):
         folder = out / f"trial-{k + 1:03d}"

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.commands.calibrate import build_rig
+from rig.commands.common import build_rig
 from rig.errors import StopSignal
 
 READS_PER_STEP = 630        # gyro reads of a 5 s hold at 100 Hz and the move after it (about 130)

@@ -104,7 +104,7 @@ def test_resume_while_the_table_is_unreachable_says_so_and_marks_the_session_fai
     from procedures.orchestrator import RigSpec, SessionOrchestrator
     from rig.config import load_config
     from rig.turntable.errors import CommunicationError
-    import rig.commands.calibrate as calibrate
+    import rig.commands.common as common
 
     cfg = load_config()
     cfg.schedule.orientations = 9
@@ -114,7 +114,7 @@ def test_resume_while_the_table_is_unreachable_says_so_and_marks_the_session_fai
     def unreachable(config, spec):
         raise CommunicationError("tcp://10.0.0.9:502: no answer to FC03 after 4 attempts (timed out)")
 
-    monkeypatch.setattr(calibrate, "build_rig", unreachable)
+    monkeypatch.setattr(common, "build_rig", unreachable)
     res = CliRunner().invoke(main, ["resume", str(tmp_path / "s"), "--no-progress"])
     assert res.exit_code == 3, res.output
     assert "no answer to FC03" in res.output and "Traceback" not in res.output
@@ -186,7 +186,7 @@ def test_a_stop_signal_after_the_session_ended_is_noted_not_obeyed():
     import os
     import signal
 
-    from rig.commands.calibrate import late_stop_signals
+    from rig.commands.common import late_stop_signals
 
     with late_stop_signals() as late:
         before = signal.getsignal(signal.SIGTERM)
@@ -202,7 +202,7 @@ def test_in_the_rig_process_a_late_stop_signal_stays_noted_until_it_exits(monkey
     import signal
 
     from rig import exits
-    from rig.commands.calibrate import late_stop_signals
+    from rig.commands.common import late_stop_signals
 
     before = signal.getsignal(signal.SIGTERM)
     monkeypatch.setattr(exits, "process_ends_with_command", True)

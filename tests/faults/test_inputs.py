@@ -90,7 +90,7 @@ def test_commands_take_the_rig_session_folder_and_name_what_is_not_one(rig_sessi
 
 
 def _few_orientations(rig_session, folder, n=3):
-    from rig.commands.sessions import read_any_session
+    from rig.commands.common import read_any_session
     from rig.io.session_writer import write_session
 
     s = read_any_session(rig_session)
@@ -116,7 +116,7 @@ def test_discrepancy_says_which_sensors_it_could_not_analyse(rig_session, tmp_pa
 
 
 def test_an_implausible_number_is_refused_by_name_and_a_wild_plausible_one_does_not_crash(rig_session, tmp_path):
-    from rig.commands.sessions import read_any_session
+    from rig.commands.common import read_any_session
     from rig.io.session_writer import write_session
 
     s = read_any_session(rig_session)

@@ -12,7 +12,7 @@ import pytest
 
 from procedures.orchestrator import RigSpec, SessionOrchestrator
 from rig import planner
-from rig.commands.calibrate import build_rig
+from rig.commands.common import build_rig
 from rig.config import load_config
 from rig.errors import InputError
 from rig.planner_bounds import MOVE_ROWS_USED

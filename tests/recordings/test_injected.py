@@ -18,7 +18,7 @@ from inject import SIZES, inject
 from paths import DATA
 
 from rig.calibration.recording import calibrate_recording
-from rig.commands.sessions import read_any_session
+from rig.commands.common import read_any_session
 from rig.discrepancy.recording import recording_tests
 
 RIG = [sys.executable, "-m", "rig.cli"]
