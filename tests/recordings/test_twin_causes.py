@@ -1,5 +1,5 @@
 """Hidden-effect tests of the twin's causes that one sensor names and another must agree with, run blind on hand
-recordings in SI units at 100 Hz (`hand_synth`): a vibration the gyro does not see, a hand's tremor it does, a gyro
+recordings in SI units at 100 Hz (`hand_motions`): a vibration the gyro does not see, a hand's tremor it does, a gyro
 stream late against the accelerometer's; and the same recordings clean. The analysis is told none of it."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from hand_synth import Hand, hand_recording, hand_session  # noqa: E402
+from hand_motions import Hand, hand_recording, hand_session  # noqa: E402
 
 from procedures.twin_analysis import analyse_twin  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402

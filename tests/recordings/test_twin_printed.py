@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from hand_synth import hand_recording, hand_session  # noqa: E402
+from hand_motions import hand_recording, hand_session  # noqa: E402
 
 from procedures.twin_analysis import analyse_twin  # noqa: E402
 from procedures.twin_printed import Printed, printed_form  # noqa: E402
