@@ -8,9 +8,8 @@ parent ends them with it on its way out. The stop signals are blocked while the 
 before it has these dispositions; one that arrives meanwhile waits and reaches the parent once they are unblocked.
 
 A worker can die while its pool needs it: killed outright (SIGKILL, the kernel's out-of-memory killer), or of a
-SIGTERM sent to it alone. A dead worker can hold its queue's lock, and `multiprocessing.Pool` then waited for ever
-(`rig discrepancy --heldout` hung in 2 of 2 runs whose worker was SIGKILLed, 2026-11-27). `ProcessPoolExecutor`
-watches its workers and fails the pending work when one dies; that is turned into `WorkerDied`, naming the process
+SIGTERM sent to it alone. A dead worker can hold its queue's lock, and `multiprocessing.Pool` then waits for ever.
+`ProcessPoolExecutor` watches its workers and fails the pending work when one dies; that is turned into `WorkerDied`, naming the process
 and its signal, which the commands report as a failure (exit 3).
 """
 

@@ -35,9 +35,8 @@ from rig.trapezoid import trapezoid
 REFERENCE_ANGLE_SD_RAD = float(np.radians(0.002))
 # Rotation error of a move in proportion to its angle, beyond the white rate noise: what the first-order model
 # misses (the reading of the samples, point or mean, and the reference's interpolation between polls grow with
-# the turn). Fitted on the simulated rig (benchmarks/bench_planner.py, 2026-11-25: achieved over predicted
-# gyro H error 0.97-1.30, mean 1.12, without it, across plans of 9-36 orientations); sparse plans with long
-# moves were the ones under-predicted.
+# the turn). Fitted on the simulated rig with benchmarks/bench_planner.py (achieved over predicted gyro H error
+# across plans of 9-36 orientations); sparse plans with long moves are the ones it matters for.
 MOVE_RELATIVE_SD = 1.5e-4
 # Seconds of still table a move's integration carries on each side of the motion (the pipeline's trim margin).
 MOVE_MARGIN_S = 0.05

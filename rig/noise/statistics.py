@@ -1,4 +1,4 @@
-"""The statistics a recording is compared on with its simulated twin (issue 13, item 3), each a named number.
+"""The statistics a recording is compared on with its simulated twin, each a named number.
 
 Per sensor: the spread within each static pose, the pose means against the model (the accelerometer's |a| - g,
 the gyro's calibrated rate), their scatter from pose to pose, the Allan deviation and the spectrum of the longest

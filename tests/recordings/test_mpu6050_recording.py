@@ -72,8 +72,7 @@ def test_the_mpu6050_session_imports_calibrates_its_accelerometer_and_names_why_
 
     # Its poses a hand held: named on the accelerometer, at the rate at which it sees gravity turn. The gyro, at its
     # authors' published scales, sees the same hand turn the unit across gravity below 2 Hz (the accelerometer's
-    # band) at a rate this must agree with to a factor of 2 (a hand's linear acceleration reads as a turn too:
-    # 0.59 against 0.41 deg/s, measured 2026-11-27).
+    # band) at a rate this must agree with to a factor of 2 (a hand's linear acceleration reads as a turn too).
     held = [c for c in report["twin"]["causes"] if c["effect"] == "hold_not_still"]
     assert [c["sensor"] for c in held] == ["accel"], [(c["effect"], c["sensor"]) for c in report["twin"]["causes"]]
     gyro = np.loadtxt(DATA / "example_data_calibration.csv", delimiter=",", skiprows=5)[:, 3:6]
