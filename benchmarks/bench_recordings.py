@@ -44,7 +44,7 @@ from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.calibration.recording_fits import gyro_rotation_fit  # noqa: E402
 from rig.calibration.recording_gyro import motion  # noqa: E402
 from rig.calibration.recording_vector import gravity_directions  # noqa: E402
-from rig.calibration.static_detect import initial_interval  # noqa: E402
+from rig.calibration.static_detect import find_initial_rest, initial_interval  # noqa: E402
 from rig.calibration.turntable_free import turntable_free_accel  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.io.import_csv import import_csv  # noqa: E402
@@ -153,12 +153,21 @@ def tomisuarez2_published(folder: Path) -> dict:
             "gyro": {"B": gyr[9:12].tolist(), "H": (Tg @ np.diag(gyr[6:9])).tolist()}}
 
 
+def initial_rest_s(laid) -> float:
+    """The initial rest imu_tk's method is given: the recording's own where its meta says it, else the one rig
+    finds in the data (a user of imu_tk sets it to the recording's rest; its 50 s default fits only its own)."""
+    given = laid.meta.get("initial_rest_s")
+    if given:
+        return float(given)
+    return find_initial_rest(laid.t, laid.raw["accel"], laid.raw.get("gyro")).seconds
+
+
 def imu_tk_method_carries(laid, full) -> list[float]:
-    """imu_tk's gyro method held out, motion by motion: B the mean of the initial 50 s rest, H carrying the gravity
+    """imu_tk's gyro method held out, motion by motion: B the mean of the initial rest, H carrying the gravity
     direction of each pose (unweighted unit-vector residuals, MultiPosGyroResidual) across every other motion
     (rig's re-implementation; on all motions it gives imu_tk's published H to 0.2 % on the diagonal), with imu_tk's
     accelerometer (upper-triangular H fitted to the first 100 samples of each pose, `turntable_free_accel`)."""
-    rest = float(laid.meta.get("initial_rest_s") or 50.0)
+    rest = initial_rest_s(laid)
     B0 = laid.raw["gyro"][:initial_interval(laid.t, rest)].mean(axis=0)
     accel = turntable_free_accel(laid.t, laid.raw["accel"], gravity=laid.gravity, init_static_s=rest)
     g = gravity_directions(laid, accel, full.poses)
@@ -178,7 +187,7 @@ def imu_tk_method_poses(laid, full) -> dict[str, list[float]]:
     each pose), then scored on the pose. On all poses it gives imu_tk's published Xsens figures (0.00811 and
     0.00112 m/s^2), so these are its method's held-out ones, where the published parameters can only be in-sample.
     None where the method cannot refit without a pose (the MPU-6050's ten poses leave nine, and it asks for ten)."""
-    rest = float(laid.meta.get("initial_rest_s") or 50.0)
+    rest = initial_rest_s(laid)
     out = {"accel_pose_rms": [], "accel_pose_mean_error": []}
     for pose in full.poses:
         keep = np.ones(len(laid.t), bool)
