@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -69,6 +70,7 @@ def recording_processes(tmp: Path, repeat: int) -> dict:
         run(argv)                                                       # warm the byte-code caches
         times = []
         for _ in range(repeat):
+            shutil.rmtree(tmp / f"{name}-out")                          # a first calibration, not one written over
             t0 = time.perf_counter()
             run(argv)
             times.append(time.perf_counter() - t0)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -34,9 +35,13 @@ RIG = [sys.executable, "-m", "rig.cli"]
 CACHED = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
 
 
-def timed(argv: list[str], repeat: int) -> dict:
+def timed(argv: list[str], repeat: int, out: Path | None = None) -> dict:
+    """Median and least wall time of `argv` as a process; `out`, the folder it writes, is removed before each run
+    (a calibration is not written over another without --force)."""
     times = []
     for _ in range(repeat):
+        if out is not None:
+            shutil.rmtree(out, ignore_errors=True)
         t0 = time.perf_counter()
         done = subprocess.run(argv, capture_output=True, text=True, env=CACHED)
         times.append(time.perf_counter() - t0)
@@ -74,7 +79,7 @@ def main() -> None:
         subprocess.run(from_argv, capture_output=True, env=CACHED)       # warm the byte-code caches
         result = {
             "help": {**timed(help_argv, args.repeat), "slowest_imports": slowest_imports(help_argv)},
-            "calibrate_from": {**timed(from_argv, args.repeat), "rows": int(len(session.t)),
+            "calibrate_from": {**timed(from_argv, args.repeat, Path(tmp) / "out"), "rows": int(len(session.t)),
                                "slowest_imports": slowest_imports(from_argv)},
             "repeat": args.repeat,
         }
