@@ -100,6 +100,7 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
                heldout: bool = False) -> None:
     """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
     from procedures.twin_analysis import analyse_twin
+    from procedures.twin_gyroless import analyse_gyroless_twin
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
 
@@ -108,7 +109,8 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
         # left to finish into a closed pipe
         with warnings.catch_warnings(), stop_signals_raise():
             warnings.simplefilter("ignore", RuntimeWarning)
-            twin = analyse_twin(session, replicas=replicas, heldout=heldout)
+            twin = (analyse_twin(session, replicas=replicas, heldout=heldout) if "gyro" in session.raw
+                    else analyse_gyroless_twin(session, replicas=replicas))
     except RigError as exc:
         raise command_error(exc, prefix=f"{session_dir}: ") from None
     except (ValueError, ArithmeticError) as exc:
