@@ -62,11 +62,14 @@ def triad(first: np.ndarray, second: np.ndarray, first_world: np.ndarray, second
     return world @ np.swapaxes(body, 1, 2)
 
 
-def field_noise(y: np.ndarray, counts: bool) -> np.ndarray:
+def field_noise(y: np.ndarray, counts: bool, replayed: np.ndarray) -> np.ndarray:
     """Per-axis white noise (raw units) of a stream in motion: from its second differences, which a hand's slow turn
-    hardly moves, their variance 6 sigma^2 for white noise (`second_difference_noise`); ahead of the rounding where
-    the stream is in counts (`noise_sigma`)."""
+    hardly moves, their variance 6 sigma^2 for white noise (`second_difference_noise`), less what the replayed
+    motion's own (`replayed`, the noiseless raw stream the replicas sense) adds to them, which every replica has
+    beside its noise; ahead of the rounding where the stream is in counts (`noise_sigma`)."""
     spread = second_difference_noise(y[~np.isnan(y).any(axis=1)])
+    motion = np.sqrt(np.mean(np.diff(replayed, n=2, axis=0) ** 2, axis=0) / 6.0)
+    spread = np.sqrt(np.maximum(spread ** 2 - motion ** 2, 0.0))
     return noise_sigma(spread[None, :]) if counts else spread
 
 
@@ -108,7 +111,10 @@ def reconstruct_from_directions(session: SessionData, rec: RecordingCalibration,
     else:
         R = least_turns(direction["mag"], env.field_world() / env.field_uT)
     units = {s: session.meta.get("units", {}).get(s, "counts") for s in cal}
-    sensors = {s: SensorModel(s, c.H, c.B, field_noise(session.raw[s], units[s] == "counts")) for s, c in cal.items()}
+    world = {"accel": env.gravity * UP, "mag": env.field_world()}
+    replayed = {s: np.einsum("nji,j->ni", R, world[s]) @ np.linalg.inv(c.H).T + c.B for s, c in cal.items()}
+    sensors = {s: SensorModel(s, c.H, c.B, field_noise(session.raw[s], units[s] == "counts", replayed[s]))
+               for s, c in cal.items()}
     attitude = ReplayedAttitude(RecordedAttitude(t, R, np.zeros((len(t), 3))), t)
     printed = printed_forms(session, sensors)
     return Replay(t, attitude, sensors, units, {s: np.isnan(session.raw[s]).any(axis=1) for s in sensors}, env,
