@@ -21,7 +21,10 @@ from procedures.twin_offset_flip import offset_flip_cause
 from procedures.twin_replicas import ReplicaJob, replica_runs
 from rig.calibration.recording import calibrate_recording
 from rig.calibration.threads import one_blas_thread
+from rig.errors import CalibrationError
 from rig.session_data import SessionData, filled
+
+MIN_CALIBRATED = 0.5       # share of the replicas that must calibrate for their band to be read
 
 
 def analyse_gyroless_twin(session: SessionData, *, replicas: int | None = None, attribution_replicas: int = 10,
@@ -40,6 +43,9 @@ def _analyse(session: SessionData, replicas: int, attribution_replicas: int, see
     replay = reconstruct_from_directions(session, rec, field_statistics)
     seeds = list(range(seed * 10_000, seed * 10_000 + replicas))
     [(base, failed)] = replica_runs([ReplicaJob(replay, seeds)])
+    if len(base) < MIN_CALIBRATED * replicas:
+        raise CalibrationError(f"{failed} of the twin's {replicas} replicas could not be calibrated "
+                               "as the recording was; their band would say nothing")
     before = bands(base)
     off = outside(real, before)
     proposed = []

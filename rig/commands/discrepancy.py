@@ -104,6 +104,9 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
 
+    if heldout and "gyro" not in session.raw:
+        click.echo("warning: --heldout: the held-out scores are the gyroscope's, and the recording has none",
+                   err=True)
     try:
         # a stop signal raised here, not the default death: the replicas' pools are ended on the way out, not
         # left to finish into a closed pipe
