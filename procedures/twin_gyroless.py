@@ -12,12 +12,15 @@ import time
 
 import numpy as np
 
+from fixtures.world.model import SensorModel
 from procedures.twin_analysis import SCHEMA, kept_causes
 from procedures.twin_bands import band_chance, bands, default_replicas
+from procedures.twin_cause import Cause
 from procedures.twin_directions import reconstruct_from_directions
 from procedures.twin_extension import family, outside
 from procedures.twin_field_statistics import field_statistics, reference_norm
-from procedures.twin_offset_flip import offset_flip_cause
+from procedures.twin_offset_flip import OffsetFlip, offset_flip
+from procedures.twin_replay import Replay
 from procedures.twin_replicas import ReplicaJob, replica_runs
 from rig.calibration.recording import calibrate_recording
 from rig.calibration.threads import one_blas_thread
@@ -48,13 +51,19 @@ def _analyse(session: SessionData, replicas: int, attribution_replicas: int, see
                                "as the recording was; their band would say nothing")
     before = bands(base)
     off = outside(real, before)
-    proposed = []
+    proposed, flipped = [], replay
     if "mag" in rec.sensors and any(family(name).startswith("mag.") for name in off):
         norm = reference_norm(session, "mag") or float(np.median(np.linalg.norm(
             rec.sensors["mag"].apply(filled(session.raw["mag"])), axis=1)))
-        flip = offset_flip_cause(session, rec, norm)
-        proposed += [flip] if flip is not None else []
-    causes, dropped, after, failed_after = kept_causes(proposed, lambda _: replay, real, off, base, seeds,
+        flip = offset_flip(session, rec, norm, calibrate_recording)
+        if flip is not None:
+            proposed.append(flip.cause)
+            flipped = replay_without_step(replay, flip)
+
+    def replay_for(causes: list[Cause]) -> Replay:
+        return flipped if any(c.effect == "mag_offset_flip" for c in causes) else replay
+
+    causes, dropped, after, failed_after = kept_causes(proposed, replay_for, real, off, base, seeds,
                                                        seeds[:attribution_replicas])
     still = outside(real, after)
     sensors = [s for s in ("accel", "mag") if s in rec.sensors]
@@ -85,6 +94,16 @@ def _analyse(session: SessionData, replicas: int, attribution_replicas: int, see
         "not_analysed": {},
         "seconds": time.perf_counter() - t0,
     }
+
+
+def replay_without_step(replay: Replay, flip: OffsetFlip) -> Replay:
+    """The recording replayed from its samples with the step taken out, calibrated again (the cause puts the step
+    back in every replica): the plain replay's directions and calibration are the compromise the step forced. The
+    noise, the grid and the gaps stay the recording's own."""
+    out = reconstruct_from_directions(flip.session, flip.rec, replay.statistics)
+    out.sensors = {s: SensorModel(s, m.H, m.B, replay.sensors[s].noise_std) for s, m in out.sensors.items()}
+    out.grid, out.printed, out.missing = replay.grid, replay.printed, replay.missing
+    return out
 
 
 def _cause_report(c) -> dict:
