@@ -51,17 +51,17 @@ def _analyse(session: SessionData, replicas: int, attribution_replicas: int, see
                                "as the recording was; their band would say nothing")
     before = bands(base)
     off = outside(real, before)
-    proposed, flipped = [], replay
+    proposed, flipped, flip_cause = [], replay, None
     if "mag" in rec.sensors and any(family(name).startswith("mag.") for name in off):
         norm = reference_norm(session, "mag") or float(np.median(np.linalg.norm(
             rec.sensors["mag"].apply(filled(session.raw["mag"])), axis=1)))
         flip = offset_flip(session, rec, norm, calibrate_recording)
         if flip is not None:
-            proposed.append(flip.cause)
+            proposed.append(flip_cause := flip.cause)
             flipped = replay_without_step(replay, flip)
 
     def replay_for(causes: list[Cause]) -> Replay:
-        return flipped if any(c.effect == "mag_offset_flip" for c in causes) else replay
+        return flipped if any(c is flip_cause for c in causes) else replay
 
     causes, dropped, after, failed_after = kept_causes(proposed, replay_for, real, off, base, seeds,
                                                        seeds[:attribution_replicas])

@@ -86,7 +86,7 @@ def offset_flip(session: SessionData, rec: RecordingCalibration, norm: float,
     step = current.sensors["mag"].H @ raw_step
     t_flip = float(0.5 * (session.t[rows[k - 1]] + session.t[rows[k]]))
     params = {"t_flip": t_flip, "step_uT": step.tolist(), "step_sd_uT": step_sd.tolist(), "p": p}
-    cause = Cause("mag_offset_flip", "mag", float(np.linalg.norm(step)), params, GOVERNS,
+    cause = Cause(MagOffsetFlip.name, "mag", float(np.linalg.norm(step)), params, GOVERNS,
                   lambda seed: [MagOffsetFlip("mag", t_flip=t_flip, step=np.array(step))])
     return OffsetFlip(cause, corrected, current)
 
