@@ -27,6 +27,7 @@ from procedures.twin_printed import Printed, printed_forms
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
+from rig.noise.statistics import recording_statistics
 from rig.noise.still_log import is_still_log_calibration, still_log_calibration
 from rig.noise.stream_delay import hand_acceleration
 from rig.session_data import SessionData, filled
@@ -49,6 +50,12 @@ class Replay:
     printed: dict[str, Printed] | None = None  # how the recording wrote each sensor in physical units
     noise_dof: dict[str, float] | None = None  # degrees of freedom of each white noise level estimated from the poses
     hand: np.ndarray | None = None        # (n, 3) m/s^2 the accelerometer reads beside gravity through the motions
+    # what every replica is reduced to, given its calibration: the recording's statistics (a recording without a
+    # gyroscope has no poses held to read them on: `procedures.twin_field_statistics`)
+    statistics: Callable[[SessionData, RecordingCalibration], dict[str, float]] = recording_statistics
+    # sensor -> (step, origin) per axis, raw units: the grid the recording's values lie on, onto which a replica's
+    # are rounded in place of counts (a step 0: an axis on no grid, in full precision or in its printed form)
+    grid: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
 
 
 @dataclass

@@ -22,7 +22,6 @@ from procedures.twin_draws import drawn_level
 from procedures.twin_replay import HandAcceleration, Replay
 from rig.errors import CalibrationError
 from rig.io.recording import recording_session
-from rig.noise.statistics import recording_statistics
 from rig.session_data import SessionData
 
 
@@ -40,7 +39,15 @@ def replica(replay: Replay, seed: int, effects: Iterable = (), quiet: Collection
     raw = {}
     for name in replay.sensors:
         y = world.sense(name, replay.t)
-        if replay.units[name] == "counts":
+        if name in (replay.grid or {}):
+            step, origin = replay.grid[name]
+            on = step > 0
+            y[:, on] = np.round((y[:, on] - origin[on]) / step[on]) * step[on] + origin[on]
+            if name in (replay.printed or {}) and not on.all():
+                rest = y[:, ~on]
+                replay.printed[name].apply(rest)
+                y[:, ~on] = rest
+        elif replay.units[name] == "counts":
             np.round(y, out=y)
         elif name in (replay.printed or {}):
             replay.printed[name].apply(y)
@@ -102,7 +109,7 @@ def _one_replica(task: tuple[int, int]) -> dict | None:
     job = _JOBS[j]
     rep = replica(job.replay, seed, job.effects_for(seed), job.quiet)
     try:
-        return recording_statistics(rep, job.replay.calibrate(rep))
+        return job.replay.statistics(rep, job.replay.calibrate(rep))
     except CalibrationError:
         return None
 

@@ -56,6 +56,10 @@ def _calibrate(turntable: bool, sensors: frozenset[str]) -> Use:
 def _discrepancy(turntable: bool, sensors: frozenset[str]) -> Use:
     if turntable or {"accel", "gyro"} <= sensors:
         return Use(True, _present(sensors))
+    if "gyro" not in sensors:
+        directions = " and ".join({"accel": "gravity's", "mag": "the field's"}[s] for s in _present(sensors))
+        return Use(True, _present(sensors), f"no gyroscope: each sample replayed at the attitude {directions} "
+                   f"direction{'s' if len(sensors) > 1 else ''} give{'' if len(sensors) > 1 else 's'}")
     return Use(False, note=f"needs {_lacking(sensors, ('accel', 'gyro'))}",
                why="a recording's twin replays its still poses and the motions between them", lacks_sensor=True)
 

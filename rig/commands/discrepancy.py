@@ -100,15 +100,20 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
                heldout: bool = False) -> None:
     """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
     from procedures.twin_analysis import analyse_twin
+    from procedures.twin_gyroless import analyse_gyroless_twin
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
 
+    if heldout and "gyro" not in session.raw:
+        click.echo("warning: --heldout: the held-out scores are the gyroscope's, and the recording has none",
+                   err=True)
     try:
         # a stop signal raised here, not the default death: the replicas' pools are ended on the way out, not
         # left to finish into a closed pipe
         with warnings.catch_warnings(), stop_signals_raise():
             warnings.simplefilter("ignore", RuntimeWarning)
-            twin = analyse_twin(session, replicas=replicas, heldout=heldout)
+            twin = (analyse_twin(session, replicas=replicas, heldout=heldout) if "gyro" in session.raw
+                    else analyse_gyroless_twin(session, replicas=replicas))
     except RigError as exc:
         raise command_error(exc, prefix=f"{session_dir}: ") from None
     except (ValueError, ArithmeticError) as exc:
