@@ -149,8 +149,13 @@ def test_batch_discrepancy_and_calibrate_on_dask_write_back_to_the_store(tmp_pat
     assert sources == [(False, 4), (True, 4)]
     assert all(isinstance(f, list) for f in findings)
     history = answer(tmp_path, "history", "DRIFTER", "--store", pg_archive)
-    assert all(e["source"].startswith("batch ") for e in history["calibrations"])   # the re-run is the latest
-    assert {d["session"] for d in history["drifted"]} == {"drift-3"}
+    assert [e["source"] for e in history["calibrations"]] == ["rig"] * 4          # the rig's own stays shown
+    beside = [b for e in history["calibrations"] for b in e["beside"]]
+    assert len(beside) == 4 and all(b["source"].startswith("batch ") and b["verdict"] for b in beside)
+    assert not any(d["flagged"] for b in beside for d in b["change"].values())   # the same data, the same answer
+    rerun = answer(tmp_path, "history", "DRIFTER", "--store", pg_archive, "--source", "batch")
+    assert all(e["source"].startswith("batch ") for e in rerun["calibrations"])
+    assert {d["session"] for d in rerun["drifted"]} == {"drift-3"}
 
 
 def test_batch_on_an_unreachable_scheduler_is_named(tmp_path, archive):
