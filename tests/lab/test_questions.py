@@ -13,6 +13,7 @@ from fixtures.world.effects.table_magnetic_disturbance import TableMagneticDistu
 
 from .archive import small_plan
 from .conftest import make_archive, no_traceback, rig
+from .rig_lab import named, trial_lab
 
 GOLDEN = "GOLD-7"
 
@@ -165,3 +166,18 @@ def test_batch_on_an_unreachable_scheduler_is_named(tmp_path, archive):
                f"tcp://127.0.0.1:{free_port()}", timeout=120)
     no_traceback(done)
     assert done.returncode == 3 and "scheduler" in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize("trial", [0, 1])
+def test_compare_rigs_names_each_simulated_fault_and_no_clean_rig(tmp_path, trial):
+    """Rigs made by their [sim] tables (a table 0.5 deg off, a field on the table, a loose holder), each beside
+    two clean rigs, and three clean rigs: exactly the faulty rig is named, with its cause, run blind
+    (benchmarks/bench_compare_rigs.py runs 20 such trials)."""
+    for scenario in trial_lab(tmp_path, trial):
+        data = answer(tmp_path, "compare-rigs", "--unit", "GOLD", "--store", scenario["store"])
+        assert named(data["findings"]) == scenario["expected"], (scenario["name"], data["findings"])
+        compared = {r["rig"]: r["compared"] for r in data["rigs"]}
+        assert compared == {r: r != scenario["rig"] or scenario["name"] != "loose" for r in compared}
+        if scenario["name"] == "loose":              # its mean stands for nothing: compared with no rig
+            text = data["findings"][0]["text"]
+            assert "disagrees with itself" in text and "loose holder" in text, text
