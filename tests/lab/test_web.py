@@ -147,3 +147,15 @@ def test_serve_stopped_by_a_signal_exits_as_every_command_does(tmp_path, serve, 
     assert site.proc.wait(15) == code
     err = site.proc.stderr.read()
     assert err.strip().splitlines()[-1] == "aborted" and "Traceback" not in err, err
+
+
+def test_a_sigma_that_rounds_to_zero_is_shown_as_0():
+    """No change at all is p = 1, whose normal deviate is -0.0: the drift table showed "-0 sigma"."""
+    import numpy as np
+
+    from rig.lab.questions import sigma_of
+    from rig.lab.web.app import _num
+
+    nothing, _ = sigma_of(np.zeros(3), np.ones(3))
+    assert _num(nothing, 2) == "0" and _num(-0.0, 2) == "0" and _num(-0.0004, 2) == "-0.0004"
+    assert _num(-2.5e-7, 2) == "-2.5e-07" and _num(-1.23, 2) == "-1.2"
