@@ -103,10 +103,10 @@ class SimWorld:
     """[sim] keys of the simulated rig's own table and surroundings: what sets one simulated rig apart from another,
     put into its simulated world by `fixtures.simrig`. All zero: an ideal table in the plain geomagnetic field."""
 
-    table_zero_deg: tuple = (0.0, 0.0)          # the table's true encoder zeros (outer, inner) off those [table] states, deg: the unit's frame is turned on the table (a misaligned table)
-    table_tilt_deg: tuple = (0.0, 0.0, 0.0)     # the inner axis tilted off square to the outer one, as a rotation vector, deg (non-orthogonal gimbals)
-    table_field_uT: tuple = (0.0, 0.0, 0.0)     # a magnetic field the table carries (a motor, a magnetised part), in the outer gimbal's frame, uT
-    fixture_play_deg: float = 0.0               # a loose holder: each session the unit sits turned about the inner axis by a random angle within +- this, deg
+    table_zero_deg: tuple = (0.0, 0.0)          # the table's true encoder zeros off [table]'s (outer, inner), deg
+    table_tilt_deg: tuple = (0.0, 0.0, 0.0)     # inner axis tilted off square to the outer, rotation vector, deg
+    table_field_uT: tuple = (0.0, 0.0, 0.0)     # a field the table carries, in the outer gimbal's frame, uT
+    fixture_play_deg: float = 0.0               # a loose holder: the unit seated turned by up to +- this each session
 
 
 SIM_WORLD_KEYS = tuple(f.name for f in fields(SimWorld))

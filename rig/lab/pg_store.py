@@ -113,8 +113,8 @@ class PgStore:
     def session_file(self, key: str) -> bytes:
         """The session's file (`session.sqlite`) rebuilt from its stored rows (`sessiondata.session_file`)."""
         join = "JOIN sessions s ON s.id = x.session_id WHERE s.key = %s"
-        metadata = self._all(f"SELECT x.seq, x.key, x.value, x.written_utc FROM session_metadata x {join} ORDER BY x.seq",
-                             (key,))
+        metadata = self._all(f"SELECT x.seq, x.key, x.value, x.written_utc FROM session_metadata x {join} "
+                             "ORDER BY x.seq", (key,))
         segments = self._all("SELECT x.seq, x.phase, x.step, x.attempt, x.t_start, x.t_end, x.n_rows, "
                              "x.commanded_outer_deg, x.commanded_inner_deg, x.measured_outer_deg, "
                              f"x.measured_inner_deg, x.written_utc FROM segments x {join} ORDER BY x.seq", (key,))
@@ -122,8 +122,9 @@ class PgStore:
         stats = self._all(f"SELECT x.segment_seq, x.channel, x.mean, x.std, x.count FROM hold_stats x {join}", (key,))
         events = self._all(f"SELECT x.seq, x.t, x.kind, x.message, x.written_utc FROM events x {join} ORDER BY x.seq",
                            (key,))
-        return sessiondata.session_file([(*r[:3], iso(r[3])) for r in metadata], [(*r[:11], iso(r[11])) for r in segments],
-                                        arrays, stats, [(*r[:4], iso(r[4])) for r in events])
+        return sessiondata.session_file([(*r[:3], iso(r[3])) for r in metadata],
+                                        [(*r[:11], iso(r[11])) for r in segments], arrays, stats,
+                                        [(*r[:4], iso(r[4])) for r in events])
 
     # -- across sessions --------------------------------------------------------------------------
     def calibrations(self, unit: str | None = None, key: str | None = None) -> list[CalibrationRecord]:

@@ -30,7 +30,8 @@ def z(a: dict, b: dict, key: str) -> float:
 
 def test_a_field_on_the_table_moves_the_magnetometer_and_nothing_else(tmp_path):
     """The same unit and noise on a plain table and on one carrying 2 uT along the inner axis (a constant field
-    in the unit's frame): the magnetometer's offset moves by many sigma, the inertial sensors' stay within their uncertainty."""
+    in the unit's frame): the magnetometer's offset moves by many sigma, the inertial sensors' stay within their
+    uncertainty."""
     plain = calibrated(tmp_path, "plain", "")
     field = calibrated(tmp_path, "field", "table_field_uT = [0.0, 0.0, 2.0]\n")
     assert z(plain["mag"], field["mag"], "B") > 10

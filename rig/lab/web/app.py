@@ -102,8 +102,8 @@ def create_app(store) -> Starlette:
             except ValueError:
                 return SafeJSON({"error": f"after={after!r} is not a time"}, status_code=400, headers=SECURITY_HEADERS)
             rows = [r for r in rows if r.started > bound]
-        return SafeJSON({"sessions": [_listed(r) for r in rows], "total": total, "now": iso(datetime.now(timezone.utc))},
-                        headers=SECURITY_HEADERS)
+        return SafeJSON({"sessions": [_listed(r) for r in rows], "total": total,
+                         "now": iso(datetime.now(timezone.utc))}, headers=SECURITY_HEADERS)
 
     def progress(request: Request) -> Response:
         keys = [k for k in request.query_params.get("keys", "").split(",") if _is_key(k)][:PAGE]
