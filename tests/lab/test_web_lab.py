@@ -156,24 +156,27 @@ def wait_for(browser, test, seconds: float, what: str):
 def test_new_sessions_appear_and_a_lost_store_is_said(tmp_path, pg_server, browser):
     """The list adds a session pushed after it was opened (no reload); when the store goes away the page says so
     instead of freezing, and says when it is back."""
-    first, second = make_archive(tmp_path / "a", [
+    first, stuck, second = make_archive(tmp_path / "a", [
         dict(name="first", unit="LIVE-1", rig="rig-l", start_utc="2026-06-01T08:00:00.000Z"),
+        dict(name="stuck", unit="LIVE-3", rig="rig-m", start_utc="2026-06-01T09:00:00.000Z", finish=False),
         dict(name="second", unit="LIVE-2", rig="rig-l", start_utc="2026-06-02T08:00:00.000Z")])
     url = pg_server.createdb("weblive")
-    assert rig("push", first, "--store", url).returncode == 0
+    for folder in (first, stuck):
+        assert rig("push", folder, "--store", url).returncode == 0
     proxy = CountingProxy(pg_server.port)
     served = Served(url.replace(f"127.0.0.1:{pg_server.port}", f"127.0.0.1:{proxy.port}"))
     try:
         browser.get(served.base + "/")
         browser.execute_script("window.__opened = true")
         assert [a.text for a in browser.find_elements(By.CSS_SELECTOR, "#sessions tbody td:nth-child(2) a")] == \
-            ["first"]
+            ["stuck", "first"]
         assert rig("push", second, "--store", url).returncode == 0
         wait_for(browser, lambda b: [a.text for a in b.find_elements(
-            By.CSS_SELECTOR, "#sessions tbody td:nth-child(2) a")] == ["second", "first"], 15, "the new session shown")
+            By.CSS_SELECTOR, "#sessions tbody td:nth-child(2) a")] == ["second", "stuck", "first"], 15,
+            "the new session shown")
         assert browser.execute_script("return window.__opened === true")           # added, not reloaded
         assert browser.find_element(By.CSS_SELECTOR, "#sessions tbody tr[data-live=new] td.status").text == "complete"
-        assert browser.find_element(By.ID, "count").text.startswith("2 sessions")
+        assert browser.find_element(By.ID, "count").text.startswith("3 sessions")
         notice = browser.find_element(By.ID, "store-notice")
         assert not notice.is_displayed()
 
@@ -184,6 +187,18 @@ def test_new_sessions_appear_and_a_lost_store_is_said(tmp_path, pg_server, brows
         proxy.restore()
         wait_for(browser, lambda b: "is back" in notice.text, 60, "the notice that the store is back")
         assert browser.execute_script("return window.__opened === true")
+
+        navigate(browser, next(a for a in browser.find_elements(By.CSS_SELECTOR, "#sessions tbody td a")
+                               if a.text == "stuck"))                     # a running session's page polls too
+        assert browser.find_element(By.ID, "status").text == "running"
+        progress = browser.find_element(By.ID, "progress").text
+        notice = browser.find_element(By.ID, "store-notice")
+        proxy.cut()
+        wait_for(browser, lambda b: notice.is_displayed() and "cannot be reached" in notice.text, 30,
+                 "the notice on a running session's page")
+        assert browser.find_element(By.ID, "progress").text == progress     # as it was, and said to be so
+        proxy.restore()
+        wait_for(browser, lambda b: "is back" in notice.text, 60, "the notice that the store is back")
     finally:
         err = served.stop()
         proxy.close()
