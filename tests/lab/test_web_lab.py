@@ -19,6 +19,7 @@ from selenium.webdriver.support.ui import WebDriverWait
 from .browser import navigate, screenshot
 from .conftest import Served, make_archive, no_traceback, rig
 from .proxy import CountingProxy
+from .rig_lab import trial_lab
 
 UNIT = "SIM-0003"
 FAST = ("calibrate", "--sim", "--seed", "3", "--time-scale", "50", "--no-progress")
@@ -203,3 +204,22 @@ def test_new_sessions_appear_and_a_lost_store_is_said(tmp_path, pg_server, brows
         err = served.stop()
         proxy.close()
     assert "Traceback" not in err, err
+
+
+def test_the_rig_comparison_names_a_rig_that_disagrees_with_itself(tmp_path, serve, browser):
+    loose = next(s for s in trial_lab(tmp_path, 2) if s["name"] == "loose")
+    site = serve(str(loose["store"]))
+    browser.get(site.base + "/rigs?unit=GOLD")
+    findings = [li.text for li in browser.find_elements(By.CSS_SELECTOR, "#findings li.finding")]
+    assert len(findings) == 1 and findings[0].startswith(f"rig {loose['rig']} disagrees with itself"), findings
+    rows = {tr.get_attribute("data-rig"): tr
+            for tr in browser.find_elements(By.CSS_SELECTOR, "#rig-sessions tr[data-rig]")}
+    assert set(rows) == {"rig-a", "rig-c", loose["rig"]}
+    for name, tr in rows.items():
+        cells = [td.text for td in tr.find_elements(By.TAG_NAME, "td")]
+        scatter = float(cells[2].split()[0])
+        if name == loose["rig"]:
+            assert scatter > 3 and cells[3].startswith("no"), cells
+        else:
+            assert scatter < 3 and cells[3] == "yes", cells
+    screenshot(browser, "lab-rig-disagrees-with-itself")
