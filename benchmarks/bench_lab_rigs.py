@@ -228,7 +228,7 @@ def main() -> None:
     configs = []
     for k in range(args.rigs):
         path = work / f"rig-{k}.toml"
-        path.write_text(base.replace('serial = "SIM-0001"', f'serial = "LAB-UNIT-{k}"'))
+        path.write_text(base.replace("[unit]\n", f"[unit]\nserial = \"LAB-UNIT-{k}\"\n", 1))
         configs.append(path)
     out = header()
     out.update({"rigs": args.rigs, "time_scale": 20, "holds_per_session": HOLDS, "down_s": args.down_s})

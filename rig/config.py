@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from importlib import resources
 from pathlib import Path
 
@@ -98,11 +98,31 @@ def load_config(path: str | Path | None = None) -> RigConfig:
     return config
 
 
+@dataclass(frozen=True)
+class SimWorld:
+    """[sim] keys of the simulated rig's own table and surroundings: what sets one simulated rig apart from another,
+    put into its simulated world by `fixtures.simrig`. All zero: an ideal table in the plain geomagnetic field."""
+
+    table_zero_deg: tuple = (0.0, 0.0)          # the table's true encoder zeros off [table]'s (outer, inner), deg
+    table_tilt_deg: tuple = (0.0, 0.0, 0.0)     # inner axis tilted off square to the outer, rotation vector, deg
+    table_field_uT: tuple = (0.0, 0.0, 0.0)     # a field the table carries, in the outer gimbal's frame, uT
+    fixture_play_deg: float = 0.0               # a loose holder: the unit seated turned by up to +- this each session
+
+
+SIM_WORLD_KEYS = tuple(f.name for f in fields(SimWorld))
+# key: (how many numbers, largest magnitude of each, what the page of configuration keys says is allowed)
+SIM_WORLD_LIMITS = {
+    "table_zero_deg": (2, 5.0, "two finite numbers, each within +-5 (deg)"),
+    "table_tilt_deg": (3, 5.0, "three finite numbers, each within +-5 (deg)"),
+    "table_field_uT": (3, 100.0, "three finite numbers, each within +-100 (uT)"),
+    "fixture_play_deg": (None, 10.0, "a finite number, 0 to 10 (deg)"),
+}
+
 SECTIONS = {"unit": ("serial", "board", "operator"),
             "table": ("outer_axis_world", "inner_axis_fixture", "outer_zero_deg", "inner_zero_deg"),
             "environment": ("gravity_mps2", "field_uT"),
             "turntable": None, "schedule": None, "limits": None, "chips": None,
-            "sim": ("chips", "turntable", "table_link", "faults"), "store": ("url", "rig")}
+            "sim": ("chips", "turntable", "table_link", "faults", *SIM_WORLD_KEYS), "store": ("url", "rig")}
 
 
 def _check_keys(raw: dict, where: str) -> None:
@@ -265,7 +285,8 @@ def config_from_dict(d: dict) -> RigConfig:
 
 def check_sim(board: str, sim: dict) -> None:
     """[sim] chips = "fake" | "real" | {part = "fake" | "real"}, turntable = "fake" | "real",
-    table_link = "tcp" | "rtu-tcp" | "rtu-pty" (how the rig reaches the fake table)."""
+    table_link = "tcp" | "rtu-tcp" | "rtu-pty" (how the rig reaches the fake table), and the keys of `SimWorld`."""
+    checked_sim_world(sim)
     table = sim.get("turntable")
     if table is not None and table not in SIM_CHOICES:
         raise ValueError(f"[sim] turntable = {table!r}; allowed: {list(SIM_CHOICES)}")
@@ -288,6 +309,31 @@ def check_sim(board: str, sim: dict) -> None:
             # one of the two silently became what the user said it was not
             raise ValueError(f"[sim.chips] {p.name} = {chips[p.name]!r} but {p.adc} = {chips[p.adc]!r}: {p.name} "
                              f"({p.chip}) is read through {p.adc}, so both are real or both fake")
+
+
+def checked_sim_world(sim: dict) -> SimWorld:
+    """The `SimWorld` keys of a [sim] table, checked: numbers, how many, and their size (`SIM_WORLD_LIMITS`)."""
+    values = {}
+    for key in SIM_WORLD_KEYS:
+        if key not in sim:
+            continue
+        value = sim[key]
+        count, largest, allowed = SIM_WORLD_LIMITS[key]
+        items = value if count is not None and isinstance(value, (list, tuple)) else [value]
+        good = (all(is_finite_number(v) and abs(v) <= largest for v in items)
+                and (len(items) == count if count is not None else not isinstance(value, (list, tuple)) and value >= 0))
+        if not good:
+            raise ValueError(f"[sim] {key} = {value!r} must be {allowed}")
+        values[key] = tuple(float(v) for v in items) if count is not None else float(value)
+    return SimWorld(**values)
+
+
+def sim_world(config: RigConfig) -> SimWorld:
+    """The configuration's simulated table and surroundings (`SimWorld`), checked."""
+    try:
+        return checked_sim_world(config.sim)
+    except ValueError as e:
+        raise ValueError(f"{config.source}: {e}") from None
 
 
 def sim_faults(config: RigConfig) -> SimFaults:

@@ -297,9 +297,13 @@ def generate() -> str:
     sim_allowed = {"chips": "`\"fake\"`, `\"real\"`, or a table", "turntable": ", ".join(f'`"{c}"`' for c in
                                                                                           cfg.SIM_CHOICES),
                    "table_link": ", ".join(f'`"{c}"`' for c in cfg.TABLE_LINKS), "faults": "a table"}
-    parts += ["## `[sim]`", "", "Which parts are emulated, and the simulated hardware's faults "
+    sim_allowed.update({key: allowed for key, (_, _, allowed) in cfg.SIM_WORLD_LIMITS.items()})
+    world_comments, world = field_comments(cfg.SimWorld), cfg.SimWorld()
+    parts += ["## `[sim]`", "", "Which parts are emulated, the simulated table and its surroundings (what sets one "
+              "simulated rig apart from another), and the simulated hardware's faults "
               "([mixed hardware in the loop](../concepts/mixed-hardware.md)).", ""]
-    parts += _table([(key, "(none)", sim_allowed[key], _meaning("sim", key, used=used))
+    parts += _table([(key, toml_value(getattr(world, key)) if key in cfg.SIM_WORLD_KEYS else "(none)",
+                      sim_allowed[key], _meaning("sim", key, world_comments.get(key, ""), used=used))
                      for key in cfg.SECTIONS["sim"]]) + [""]
     fault_rows = []
     comments = field_comments(SimFaults)

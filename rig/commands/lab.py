@@ -25,6 +25,12 @@ def store_option(f):
     return click.option("--store", "store_url", required=True, envvar="RIG_STORE", help=STORE_HELP)(f)
 
 
+def source_option(f):
+    return click.option("--source", "source", default="rig", show_default=True,
+                        help="Which calibration of each session: rig (the rig's own), batch (the latest batch "
+                             "re-calibration) or batch:RUN (one batch run's).")(f)
+
+
 def json_option(f):
     return click.option("--json", "json_out", type=click.Path(dir_okay=False, path_type=Path), default=None,
                         help="Also write the answer as JSON to this file.")(f)
@@ -198,18 +204,21 @@ def units(store_url, json_out):
 @json_option
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Plot B and H over time with their uncertainties (PNG, SVG or PDF).")
-def history(serial, store_url, json_out, plot):
+@source_option
+def history(serial, store_url, json_out, plot, source):
     """Every calibration of a unit, oldest first, with drift flagged against the uncertainty."""
     from rig.lab.questions import history as unit_history
+    from rig.lab.records import check_source
 
     with lab_errors():
+        source = check_source(source)
         store = opened(store_url)
         try:
             known = {u["serial"] for u in store.units()}
             if serial not in known:
                 raise CommandError(f"unit {serial!r} is not in {store.describe()} ({len(known)} units are; "
                                    "`rig units` lists them)", Exit.BAD_INPUT)
-            data = unit_history(store, serial)
+            data = unit_history(store, serial, source)
         finally:
             store.close()
     say_skipped(store, data)
@@ -217,8 +226,13 @@ def history(serial, store_url, json_out, plot):
         click.echo(f"unit {serial}: no calibration stored yet")
     for entry in data["calibrations"]:
         flags = [s for s, d in entry.get("drift", {}).items() if d["flagged"]]
-        click.echo(f"{entry['started_utc']}  {entry['session']:<28} rig {entry['rig']:<12} {entry['status']:<9}"
+        click.echo(f"{entry['started_utc']}  {entry['session']:<28} rig {entry['rig']:<12} {entry['status']:<9} "
+                   f"{entry['verdict'] or '-':<11}"
                    + (f"  DRIFT: {', '.join(flags)} (> {data['z_flag']:g} sigma since the one before)" if flags else ""))
+        for other in entry["beside"]:
+            moved = [s for s, d in other["change"].items() if d["flagged"]]
+            click.echo(f"{'':26}beside it: {other['source']} ({other['verdict'] or 'no verdict'})"
+                       + (f", differs in {', '.join(moved)} (> {data['z_flag']:g} sigma)" if moved else ""))
     with lab_errors():
         write_json(json_out, data)
         if plot is not None and data["calibrations"]:
@@ -232,21 +246,28 @@ def history(serial, store_url, json_out, plot):
 @click.option("--unit", "unit", required=True, help="The golden unit's serial.")
 @store_option
 @json_option
-def compare_rigs(unit, store_url, json_out):
-    """The same (golden) unit on every rig: rig-to-rig differences with their uncertainty, rigs that stand out."""
+@source_option
+def compare_rigs(unit, store_url, json_out, source):
+    """The same (golden) unit on every rig: rig-to-rig differences with their uncertainty, rigs that stand out,
+    rigs that disagree with themselves."""
     from rig.lab.questions import compare_rigs as compare
+    from rig.lab.records import check_source
 
     with lab_errors():
+        source = check_source(source)
         store = opened(store_url)
         try:
-            data = compare(store, unit)
+            data = compare(store, unit, source)
         finally:
             store.close()
     say_skipped(store, data)
     if not data["rigs"]:
-        raise CommandError(f"unit {unit!r} has no calibration in {store.describe()}", Exit.BAD_INPUT)
+        raise CommandError(f"unit {unit!r} has no calibration ({source}) in {store.describe()}", Exit.BAD_INPUT)
     for rig in data["rigs"]:
-        click.echo(f"rig {rig['rig']}: {rig['sessions']} calibrations of {unit}")
+        ratios = [q["ratio"] for quantities in rig["scatter"].values() for q in quantities.values()]
+        click.echo(f"rig {rig['rig']}: {rig['sessions']} calibrations of {unit}"
+                   + (f"; its sessions scatter up to {max(ratios):.3g} times their stated uncertainty" if ratios
+                      else ""))
     if len(data["rigs"]) < 2:
         click.echo("only one rig has calibrated this unit: nothing to compare")
     for diff in data["differences"]:

@@ -25,7 +25,8 @@ from rig.exits import CommandError, Exit, stop_signals_raise
 @click.option("--replay", is_flag=True, help="discrepancy: also replay each schedule in the simulator (slower).")
 @json_option
 def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
-    """Re-run calibration or the discrepancy analysis over stored sessions; results go back to the store."""
+    """Re-run calibration or the discrepancy analysis over stored sessions; results go back to the store, a
+    re-calibration beside the rig's own with its verdict (exit 1 when a verdict is FAIL)."""
     from rig.lab.batch import run_batch
     from rig.lab.errors import is_database_url
     from rig.lab.records import Filters
@@ -57,11 +58,18 @@ def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
         write_json(json_out, summary)
     click.echo(f"{summary['ok']} of {summary['sessions']} sessions analysed in {summary['seconds']:.1f} s on "
                f"{summary['workers']} worker{'s' if summary['workers'] != 1 else ''}; results stored as run {summary['run']}")
+    if summary["verdicts"]:
+        click.echo("verdicts of the re-calibrations (by each session's own limits): "
+                   + ", ".join(f"{n} {verdict}" for verdict, n in summary["verdicts"].items()))
     for f in summary["failed"][:20]:
         click.echo(f"  {f['session']}: {f['error']}", err=True)
     if summary["failed"]:
         click.echo(f"{len(summary['failed'])} sessions could not be analysed (their reasons are stored)", err=True)
         sys.exit(Exit.FAILED)
+    if summary["verdict_fail"]:
+        click.echo(f"{len(summary['verdict_fail'])} re-calibrations have the verdict FAIL (stored beside the rigs' "
+                   "own)", err=True)
+        sys.exit(Exit.FAIL)
 
 
 def _no_session(store) -> str:

@@ -1,4 +1,9 @@
-"""`rig repeatability`: N sessions on the same unit and the spread of every element of B and H."""
+"""`rig repeatability`: N sessions on the same unit and the spread of every element of B and H.
+
+Every trial is a session like `rig calibrate`'s, and goes to the lab's store like one: `--store` or the
+configuration's `[store] url`, mirrored while it runs (a `postgresql://` store) or recorded inside it (a folder
+store, which `--out` must lie in). The series' report itself (`repeatability.md`) stays in `--out`.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +12,7 @@ from pathlib import Path
 
 import click
 
-from rig.commands.common import rig_config, run_session_to
+from rig.commands.common import mirrored, rig_config, run_session_to
 
 
 @click.command()
@@ -18,20 +23,29 @@ from rig.commands.common import rig_config, run_session_to
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="The simulated unit.")
 @click.option("--method", type=click.Choice(["joint", "two-step"]), default="joint", show_default=True)
 @click.option("--orientations", type=click.IntRange(9, 64), default=None)
-def repeatability(sim, config_path, trials, out, seed, method, orientations):
+@click.option("--store", "store", default=None, metavar="URL|FOLDER",
+              help="The lab's store every trial goes to ([store] url in the TOML): a postgresql:// URL (mirrored as "
+                   "it runs) or a folder of session folders that --out must lie in.")
+def repeatability(sim, config_path, trials, out, seed, method, orientations, store):
     """Run TRIALS sessions on one unit and report the mean and standard deviation of B and H (paper Fig. 7)."""
-    from rig.exits import Exit
+    from rig.exits import CommandError, Exit
+    from rig.lab.errors import is_database_url
     from rig.report.repeatability import write_repeatability_report
 
     if not sim and not config_path:
         raise click.UsageError("give --sim or --config rig.toml")
     config = rig_config(config_path, orientations)
+    store = store or config.store.get("url")
+    if store is not None and not is_database_url(store) and not out.resolve().is_relative_to(Path(store).resolve()):
+        raise CommandError(f"--store {store}: a folder store holds session folders, and --out {out} is not inside "
+                           f"it (e.g. --out {Path(store) / out.name})", Exit.BAD_INPUT)
     runs, rejected = [], 0
     for k in range(trials):
         folder = out / f"trial-{k + 1:03d}"
         click.echo(f"trial {k + 1}/{trials} -> {folder}")
-        status = run_session_to(folder, config, sim=sim, seed=seed, time_scale=None, method=method,
-                                progress=False, trial=k)
+        with mirrored(folder, store):
+            status = run_session_to(folder, config, sim=sim, seed=seed, time_scale=None, method=method,
+                                    progress=False, trial=k)
         if status not in (Exit.OK, Exit.FAIL):          # a FAIL verdict is a result; anything else ends the series
             sys.exit(status)
         rejected += status == Exit.FAIL

@@ -1,10 +1,11 @@
 """Re-analysing an archive on Dask distributed: `rig batch calibrate|discrepancy --store URL --where ...`.
 
 Each task gets the store's address and a session key, reads the session itself on the worker (so the data
-never travels through the scheduler), runs the project's own analysis (`rig.pipeline.calibrate_session`,
-`rig.discrepancy.analyze`) and returns a small JSON result; the client writes the results back to the store
-as they arrive, under one run id. A session that cannot be analysed is a result too (ok = false, the reason),
-never a crash of the batch. A LocalCluster is started unless a scheduler address is given.
+never travels through the scheduler), runs the project's own analysis (`rig.pipeline.calibrate_session`, judged
+by the limits the session's rig was configured with; `rig.discrepancy.analyze`) and returns a small JSON result;
+the client writes the results back to the store as they arrive, under one run id. A re-calibration is stored
+beside the rig's own, never over it. A session that cannot be analysed is a result too (ok = false, the
+reason), never a crash of the batch. A LocalCluster is started unless a scheduler address is given.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import tempfile
 import threading
 import time
 import warnings
+from dataclasses import asdict
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -28,6 +30,7 @@ from rig.discrepancy import analyze
 from rig.lab.stores import open_store
 from rig.pipeline import calibrate_session
 from rig.pipeline.writing import write_session_calibration
+from rig.report.calibration_report import evaluate
 
 KINDS = ("calibrate", "discrepancy")
 CHUNK_MAX = 16                 # sessions per task at most
@@ -57,8 +60,9 @@ def analyse_one(store_url: str, key: str, kind: str, options: dict) -> dict:
     except Exception as exc:           # the session's problem, reported as its result
         document, calibration, ok = json.dumps({"error": f"{type(exc).__name__}: {exc}"}), None, False
         summary = error = f"{type(exc).__name__}: {exc}"
+    verdict = json.loads(document).get("verdict") if ok else None
     return {"key": key, "ok": ok, "document": document, "calibration": calibration, "summary": summary,
-            "error": error, "seconds": time.perf_counter() - t0}
+            "error": error, "verdict": verdict, "seconds": time.perf_counter() - t0}
 
 
 def analyse_many(store_url: str, keys: list[str], kind: str, options: dict) -> list[dict]:
@@ -67,18 +71,25 @@ def analyse_many(store_url: str, keys: list[str], kind: str, options: dict) -> l
 
 
 def _calibrate(session, options: dict) -> tuple[str, str, str]:
+    """The session calibrated again and judged by the limits its rig was configured with (as the rig judged it,
+    `procedures.orchestrator`): the calibration file carries its verdict, the result its checks."""
     method = options.get("method", "joint")
     result = calibrate_session(session, method=method, settle_s=0.0)
     unit = session.meta.get("unit") or {}
+    limits = (session.meta.get("config") or {}).get("limits")
+    evaluation = evaluate(session, result.sensors, gravity=session.gravity, field_uT=session.field_uT, limits=limits)
+    verdict = evaluation.verdict
     with tempfile.TemporaryDirectory(prefix="rig-batch-") as out:
         path = write_session_calibration(out, result, gravity=session.gravity, field_uT=session.field_uT,
                                          unit_serial=unit.get("serial"), board=unit.get("board"),
                                          extra={"source": {"batch": True, "method": method,
-                                                           "session": session.source}})
+                                                           "session": session.source}, "verdict": verdict},
+                                         session=session)
         calibration = Path(path).read_text()
-    summary = "; ".join(line for line in result.summary if not line.startswith(" "))
-    doc = {"summary": summary, "warnings": result.warnings, "method": method}
-    return json.dumps(doc), calibration, summary
+    summary = f"verdict {verdict}: " + "; ".join(line for line in result.summary if not line.startswith(" "))
+    doc = {"summary": summary, "verdict": verdict, "failing": evaluation.failing(),
+           "checks": [asdict(c) for c in evaluation.checks], "warnings": result.warnings, "method": method}
+    return json.dumps(_finite(doc)), calibration, summary
 
 
 def _discrepancy(session, options: dict) -> tuple[str, None, str]:
@@ -148,7 +159,7 @@ def run_batch(store, store_url: str, kind: str, keys: list[str], *, scheduler: s
         chunks = [keys[i:i + size] for i in range(0, len(keys), size)]
         futures = client.map(analyse_many, [store_url] * len(chunks), chunks, kind=kind, options=options, pure=False)
         chunk_of = {f.key: c for f, c in zip(futures, chunks)}
-        failed, done = [], 0
+        failed, done, verdicts = [], 0, {}
         for future in as_completed(futures):
             try:
                 results = future.result()
@@ -161,13 +172,16 @@ def run_batch(store, store_url: str, kind: str, keys: list[str], *, scheduler: s
                 done += 1
                 if not result["ok"]:
                     failed.append({"session": result["key"], "error": result["error"]})
+                elif result.get("verdict"):
+                    verdicts.setdefault(result["verdict"], []).append(result["key"])
         seconds = time.perf_counter() - t0
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
     return {"schema": "rig-batch/1", "kind": kind, "run": run, "sessions": len(keys), "ok": done - len(failed),
-            "failed": failed, "workers": n_workers, "seconds": seconds,
+            "failed": failed, "verdicts": {v: len(k) for v, k in sorted(verdicts.items())},
+            "verdict_fail": verdicts.get("FAIL", []), "workers": n_workers, "seconds": seconds,
             "sessions_per_s": len(keys) / seconds if seconds > 0 else None}
 
 

@@ -11,6 +11,7 @@ never touched.
 from __future__ import annotations
 
 import json
+import re
 import threading
 from collections import Counter
 from datetime import datetime, timezone
@@ -22,11 +23,12 @@ from rig.io.calibration_json import read_calibration
 from rig.lab import identity, sessiondata, validate
 from rig.lab.errors import StoreInputError
 from rig.lab.local import CALIBRATION_FILE, LocalSession, session_folders
-from rig.lab.records import CalibrationRecord, Filters, SessionRow
+from rig.lab.records import BATCH_PREFIX, RIG_SOURCE, CalibrationRecord, Filters, SessionRow
 from rig.session_data import SessionData
 from rig.store.schema import SESSION_FILE
 
 RESULTS = "lab"
+SAFE_RUN = re.compile(r"^[\w.\-]+$")          # a batch run's id as it names a file (never a path)
 
 
 class FolderStore:
@@ -160,12 +162,33 @@ class FolderStore:
             found = [(media, data) for n, media, data in local.artifacts() if n == name]
         return found[0] if found else None
 
+    def calibration_text(self, key: str, source: str) -> str | None:
+        """The calibration file of one source ("rig", "batch <run>") of a session, as it lies in its folder."""
+        folder = self._folder(key)
+        if folder is None:
+            return None
+        run = source[len(BATCH_PREFIX):] if source.startswith(BATCH_PREFIX) else None
+        if run is not None and not SAFE_RUN.match(run):
+            return None
+        path = folder / CALIBRATION_FILE if source == RIG_SOURCE else folder / RESULTS / f"calibration-{run}.json"
+        try:
+            return path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            return None
+
+    def session_file(self, key: str) -> bytes:
+        """The session's file (`session.sqlite`): a snapshot of what is committed, also while it is recorded."""
+        with self._local(key) as local:
+            return sessiondata.copy_of(local.connection)
+
     # -- across sessions --------------------------------------------------------------------------
     def calibrations(self, unit: str | None = None, key: str | None = None) -> list[CalibrationRecord]:
+        """Every calibration (the rig's own first, then batch runs in their order) of the unit's or the session's
+        sessions, oldest session first."""
         out = []
         for _, row, records in self._all():
-            if records and ((unit is not None and row.unit == unit) or (key is not None and row.key == key)):
-                out.append(records[-1])
+            if (unit is not None and row.unit == unit) or (key is not None and row.key == key):
+                out.extend(records)
         return out
 
     def units(self) -> list[dict]:

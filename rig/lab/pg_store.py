@@ -11,16 +11,16 @@ from rig.lab import sessiondata
 from rig.lab.errors import NoLabTables, StoreInputError, StoreUnavailable, redact
 from rig.lab.pg import CONNECT_TIMEOUT_S, STATEMENT_TIMEOUT_MS, TCP_USER_TIMEOUT_MS, connect, translated
 from rig.lab.pg_schema import ensure_schema, stored_version
-from rig.lab.records import CalibrationRecord, Filters, SessionRow, load_document
+from rig.lab.records import CalibrationRecord, Filters, SessionRow, iso, load_document
 from rig.session_data import SessionData
 
 ROW = ("SELECT s.key::text, s.name, u.serial, r.name, coalesce(o.name, ''), s.started_utc, s.status, s.status_reason,"
        " s.verdict, s.ended_utc, s.planned, s.holds, s.first_hold_utc, s.last_hold_utc, s.simulated"
        " FROM sessions s JOIN units u ON u.id = s.unit_id JOIN rigs r ON r.id = s.rig_id"
        " LEFT JOIN operators o ON o.id = s.operator_id")
-# the latest calibration of each session: the rig's own, or a batch re-run made after it
-LATEST_CALIBRATION = ("SELECT DISTINCT ON (c.session_id) c.session_id, c.source, c.document FROM calibrations c"
-                      " ORDER BY c.session_id, c.id DESC")
+# each session's calibration per source (the rig's own, each batch run's): the latest stored of each
+CALIBRATION_PER_SOURCE = ("SELECT DISTINCT ON (c.session_id, c.source) c.id, c.session_id, c.source, c.document "
+                          "FROM calibrations c ORDER BY c.session_id, c.source, c.id DESC")
 
 
 class PgStore:
@@ -104,13 +104,37 @@ class PgStore:
                          "WHERE s.key = %s AND a.name = %s ORDER BY a.id DESC LIMIT 1", (key, name))
         return (rows[0][0], bytes(rows[0][1])) if rows else None
 
+    def calibration_text(self, key: str, source: str) -> str | None:
+        """The calibration file of one source ("rig", "batch <run>") of a session, as it was stored."""
+        rows = self._all("SELECT c.document FROM calibrations c JOIN sessions s ON s.id = c.session_id WHERE s.key = %s"
+                         " AND c.source = %s ORDER BY c.id DESC LIMIT 1", (key, source))
+        return rows[0][0] if rows else None
+
+    def session_file(self, key: str) -> bytes:
+        """The session's file (`session.sqlite`) rebuilt from its stored rows (`sessiondata.session_file`)."""
+        join = "JOIN sessions s ON s.id = x.session_id WHERE s.key = %s"
+        metadata = self._all(f"SELECT x.seq, x.key, x.value, x.written_utc FROM session_metadata x {join} "
+                             "ORDER BY x.seq", (key,))
+        segments = self._all("SELECT x.seq, x.phase, x.step, x.attempt, x.t_start, x.t_end, x.n_rows, "
+                             "x.commanded_outer_deg, x.commanded_inner_deg, x.measured_outer_deg, "
+                             f"x.measured_inner_deg, x.written_utc FROM segments x {join} ORDER BY x.seq", (key,))
+        arrays = self._all(f"SELECT x.segment_seq, x.name, x.dtype, x.shape, x.data FROM samples x {join}", (key,))
+        stats = self._all(f"SELECT x.segment_seq, x.channel, x.mean, x.std, x.count FROM hold_stats x {join}", (key,))
+        events = self._all(f"SELECT x.seq, x.t, x.kind, x.message, x.written_utc FROM events x {join} ORDER BY x.seq",
+                           (key,))
+        return sessiondata.session_file([(*r[:3], iso(r[3])) for r in metadata],
+                                        [(*r[:11], iso(r[11])) for r in segments], arrays, stats,
+                                        [(*r[:4], iso(r[4])) for r in events])
+
     # -- across sessions --------------------------------------------------------------------------
     def calibrations(self, unit: str | None = None, key: str | None = None) -> list[CalibrationRecord]:
+        """Every calibration (the rig's own first, then batch runs in their order) of the unit's or the session's
+        sessions, oldest session first."""
         cond, args = ("u.serial = %s", (unit,)) if unit is not None else ("s.key = %s", (key,))
         rows = self._all(f"SELECT s.name, s.key::text, s.started_utc, r.name, s.status, c.source, c.document "
                          f"FROM sessions s JOIN units u ON u.id = s.unit_id JOIN rigs r ON r.id = s.rig_id "
-                         f"JOIN ({LATEST_CALIBRATION}) c ON c.session_id = s.id WHERE {cond} "
-                         "ORDER BY s.started_utc, s.id", args)
+                         f"JOIN ({CALIBRATION_PER_SOURCE}) c ON c.session_id = s.id WHERE {cond} "
+                         "ORDER BY s.started_utc, s.id, c.source <> 'rig', c.id", args)
         records = []
         for n, k, st, rig, status, src, doc in rows:
             where = f"{redact(self.url)} session {n} ({src} calibration)"

@@ -49,9 +49,14 @@ class SessionRow:
                 "last_hold_utc": iso(self.last_hold)}
 
 
+RIG_SOURCE = "rig"
+BATCH_PREFIX = "batch "
+
+
 @dataclass
 class CalibrationRecord:
-    """The calibration a session is known by (its latest: the rig's own, or a batch re-run after it)."""
+    """One calibration of a session: the rig's own (`source` "rig"), or a batch re-calibration beside it
+    ("batch <run>"). A session has at most one of each source."""
 
     session: str          # the session's name (its folder)
     key: str
@@ -62,11 +67,41 @@ class CalibrationRecord:
     document: dict        # rig-calibration/1
 
     def sensors(self) -> dict:
+        """Per sensor: B and H with their standard deviations and the unit u = H (y - B) is calibrated to."""
         out = {}
         for name, cal in (self.document.get("sensors") or {}).items():
             if isinstance(cal, dict) and "B" in cal and "H" in cal:
-                out[name] = {k: cal.get(k) for k in ("B", "H", "B_std", "H_std")}
+                out[name] = {k: cal.get(k) for k in ("B", "H", "B_std", "H_std", "unit")}
         return out
+
+    @property
+    def verdict(self) -> str | None:
+        """PASS, FAIL or NOT CHECKED, as the calibration's limits judged it (None: a file that does not say)."""
+        verdict = self.document.get("verdict")
+        return verdict if isinstance(verdict, str) else None
+
+    @property
+    def run(self) -> str | None:
+        """The batch run that made it (None for the rig's own)."""
+        return self.source[len(BATCH_PREFIX):] if self.source.startswith(BATCH_PREFIX) else None
+
+
+def pick_source(records: list[CalibrationRecord], source: str) -> CalibrationRecord | None:
+    """The calibration of one session's `records` that `source` asks for: "rig" (the rig's own), "batch" (the
+    latest batch re-calibration) or "batch <run>" (that run's)."""
+    if source == "batch":
+        batch = [r for r in records if r.run is not None]
+        return max(batch, key=lambda r: r.run) if batch else None
+    return next((r for r in records if r.source == source), None)
+
+
+def check_source(source: str) -> str:
+    """`source` as `pick_source` takes it; anything else refused with what is allowed."""
+    source = " ".join(str(source).replace(":", " ").split())
+    if source in (RIG_SOURCE, "batch") or (source.startswith(BATCH_PREFIX) and len(source) > len(BATCH_PREFIX)):
+        return source
+    raise StoreInputError(f"source {source!r}: give rig (the rig's own calibrations), batch (each session's latest "
+                          "batch re-calibration) or batch:RUN (one batch run's)")
 
 
 @dataclass

@@ -13,6 +13,7 @@ from fixtures.world.effects.table_magnetic_disturbance import TableMagneticDistu
 
 from .archive import small_plan
 from .conftest import make_archive, no_traceback, rig
+from .rig_lab import named, trial_lab
 
 GOLDEN = "GOLD-7"
 
@@ -149,8 +150,13 @@ def test_batch_discrepancy_and_calibrate_on_dask_write_back_to_the_store(tmp_pat
     assert sources == [(False, 4), (True, 4)]
     assert all(isinstance(f, list) for f in findings)
     history = answer(tmp_path, "history", "DRIFTER", "--store", pg_archive)
-    assert all(e["source"].startswith("batch ") for e in history["calibrations"])   # the re-run is the latest
-    assert {d["session"] for d in history["drifted"]} == {"drift-3"}
+    assert [e["source"] for e in history["calibrations"]] == ["rig"] * 4          # the rig's own stays shown
+    beside = [b for e in history["calibrations"] for b in e["beside"]]
+    assert len(beside) == 4 and all(b["source"].startswith("batch ") and b["verdict"] for b in beside)
+    assert not any(d["flagged"] for b in beside for d in b["change"].values())   # the same data, the same answer
+    rerun = answer(tmp_path, "history", "DRIFTER", "--store", pg_archive, "--source", "batch")
+    assert all(e["source"].startswith("batch ") for e in rerun["calibrations"])
+    assert {d["session"] for d in rerun["drifted"]} == {"drift-3"}
 
 
 def test_batch_on_an_unreachable_scheduler_is_named(tmp_path, archive):
@@ -160,3 +166,18 @@ def test_batch_on_an_unreachable_scheduler_is_named(tmp_path, archive):
                f"tcp://127.0.0.1:{free_port()}", timeout=120)
     no_traceback(done)
     assert done.returncode == 3 and "scheduler" in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize("trial", [0, 1])
+def test_compare_rigs_names_each_simulated_fault_and_no_clean_rig(tmp_path, trial):
+    """Rigs made by their [sim] tables (a table 0.5 deg off, a field on the table, a loose holder), each beside
+    two clean rigs, and three clean rigs: exactly the faulty rig is named, with its cause, run blind
+    (benchmarks/bench_compare_rigs.py runs 20 such trials)."""
+    for scenario in trial_lab(tmp_path, trial):
+        data = answer(tmp_path, "compare-rigs", "--unit", "GOLD", "--store", scenario["store"])
+        assert named(data["findings"]) == scenario["expected"], (scenario["name"], data["findings"])
+        compared = {r["rig"]: r["compared"] for r in data["rigs"]}
+        assert compared == {r: r != scenario["rig"] or scenario["name"] != "loose" for r in compared}
+        if scenario["name"] == "loose":              # its mean stands for nothing: compared with no rig
+            text = data["findings"][0]["text"]
+            assert "disagrees with itself" in text and "loose holder" in text, text

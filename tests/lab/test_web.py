@@ -80,11 +80,19 @@ def test_the_history_plot_shows_every_calibration(site, browser):
     browser.get(site.base + "/unit/GOLD-W")
     rows = browser.find_elements(By.CSS_SELECTOR, "#history tbody tr")
     assert len(rows) == 9
+    rig_of_row = [tr.find_element(By.CSS_SELECTOR, "td.rig").text for tr in rows]
     for plot in ("history-accel-B", "history-gyro-H", "history-mag-B"):
         traces = browser.find_elements(By.CSS_SELECTOR, f"#{plot} .scatterlayer .trace")
-        assert len(traces) == 3, plot
-        for trace in traces:                                  # every calibration is a point on every line
+        assert len(traces) == 3 + 3, plot                     # x, y, z and the key to each rig's symbol
+        for trace in traces[:3]:                              # every calibration is a point on every line
             assert len(trace.find_elements(By.CSS_SELECTOR, ".points .point")) == 9, plot
+        symbols = browser.execute_script(f"return document.getElementById('{plot}').data[0].marker.symbol")
+        assert len(set(symbols)) == 3 and len(set(zip(symbols, rig_of_row))) == 3, (symbols, rig_of_row)
+        legend = {t.text for t in browser.find_elements(By.CSS_SELECTOR, f"#{plot} .legend .legendtext")}
+        assert {"rig rig-a", "rig rig-b", "rig rig-c"} <= legend, legend
+    assert "(counts)" in browser.find_element(By.CSS_SELECTOR, "#history-mag-B .gtitle").text
+    assert "uT per count" in browser.find_element(By.CSS_SELECTOR, "#history-mag-H .gtitle").text
+    assert "-0 sigma" not in browser.find_element(By.TAG_NAME, "main").text
     screenshot(browser, "lab-unit-history")
 
 
@@ -124,7 +132,7 @@ def test_serve_on_a_folder_store_and_a_busy_port(tmp_path, serve):
     make_archive(tmp_path / "f", [dict(unit="F-1", rig="r", start_utc="2026-05-01T08:00:00.000Z")])
     site = serve(str(tmp_path / "f"))
     status, body = site.get("/unit/F-1")
-    assert status == 200 and b"1 calibration;" in body
+    assert status == 200 and b"1 calibration on" in body
     done = rig("serve", "--store", tmp_path / "f", "--port", site.port, timeout=30)
     assert done.returncode == 4 and "in use" in done.stderr and "Traceback" not in done.stderr
 
@@ -139,3 +147,15 @@ def test_serve_stopped_by_a_signal_exits_as_every_command_does(tmp_path, serve, 
     assert site.proc.wait(15) == code
     err = site.proc.stderr.read()
     assert err.strip().splitlines()[-1] == "aborted" and "Traceback" not in err, err
+
+
+def test_a_sigma_that_rounds_to_zero_is_shown_as_0():
+    """No change at all is p = 1, whose normal deviate is -0.0: the drift table showed "-0 sigma"."""
+    import numpy as np
+
+    from rig.lab.questions import sigma_of
+    from rig.lab.web.app import _num
+
+    nothing, _ = sigma_of(np.zeros(3), np.ones(3))
+    assert _num(nothing, 2) == "0" and _num(-0.0, 2) == "0" and _num(-0.0004, 2) == "-0.0004"
+    assert _num(-2.5e-7, 2) == "-2.5e-07" and _num(-1.23, 2) == "-1.2"

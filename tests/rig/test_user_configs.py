@@ -10,6 +10,7 @@ import pytest
 from rig.config import load_config
 
 SIM_TOML = resources.files("rig.configs").joinpath("sim.toml").read_text()
+UNIT_TABLE = SIM_TOML[SIM_TOML.index("[unit]\n"):SIM_TOML.index("\n[", SIM_TOML.index("[unit]\n")) + 1]
 
 
 def rig(*args, timeout=120):
@@ -49,8 +50,8 @@ def edited(old: str, new: str) -> str:
     ("settle_s = 0.3", "settle_s = 0.3\nprofile = 5", "[turntable] profile = 5 must be a string"),
     # a section given as a value: its characters were read as keys ("[unit] has unknown keys ['x']"), or
     # an empty one crashed
-    ('[unit]\nserial = "SIM-0001"\nboard = "bsn"\noperator = "simulator"\n', 'unit = ""\n', 'unit = \'\' must be a table'),
-    ('[unit]\nserial = "SIM-0001"\nboard = "bsn"\noperator = "simulator"\n', 'unit = "x"\n', "unit = 'x' must be a table"),
+    (UNIT_TABLE, 'unit = ""\n', 'unit = \'\' must be a table'),
+    (UNIT_TABLE, 'unit = "x"\n', "unit = 'x' must be a table"),
 ])
 def test_a_value_no_rig_can_use_is_refused_naming_file_and_key(tmp_path, old, new, needle):
     cfg = tmp_path / "rig.toml"

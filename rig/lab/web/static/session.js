@@ -1,4 +1,5 @@
-// One session: progress (orientation k of n, ETA) and hold means arriving while it runs, plotted by step.
+// One session: progress (orientation k of n, ETA) and hold means arriving while it runs, plotted by step; once
+// calibrated, the residual of every orientation; a notice while the store cannot be reached.
 "use strict";
 (function () {
   const data = lab.json("session-data");
@@ -52,10 +53,61 @@
     lab.text(document.getElementById("reason"), p.reason || "");
   }
 
+  // One plot per sensor: a static sensor's residual u_j - R_j^T v (x, y, z) and norm error by orientation, in
+  // its unit; the gyroscope's rotation error by move, in deg.
+  function residualPlots(r) {
+    const box = document.getElementById("residual-plots");
+    const said = document.getElementById("residuals-status");
+    const sensors = Object.entries(r.sensors || {});
+    lab.text(said, r.error ? r.error : (sensors.length ? "" : "no residuals to show"));
+    if (said && !r.error && sensors.length) said.hidden = true;
+    if (!box || !lab.plotly()) return;
+    for (const [sensor, s] of sensors) {
+      const div = document.createElement("div");
+      div.id = "residuals-" + sensor;
+      div.className = "plot third";
+      box.appendChild(div);
+      const traces = [];
+      let title, ytitle, xtitle;
+      if (s.residual) {
+        for (let i = 0; i < 3; i++) {
+          traces.push({x: s.steps, y: s.residual.map(v => v[i]), name: "residual " + "xyz"[i], mode: "lines+markers",
+                       type: "scatter"});
+        }
+        traces.push({x: s.steps, y: s.norm_error, name: "|u| - " + Number(s.reference).toPrecision(6),
+                     mode: "lines+markers", type: "scatter", line: {dash: "dot"}});
+        title = sensor + ": residual by orientation";
+        ytitle = s.unit;
+        xtitle = "orientation (step)";
+      } else {
+        traces.push({x: s.moves, y: s.move_error_deg, name: "rotation error", mode: "lines+markers", type: "scatter"});
+        title = sensor + ": integrated rotation error by move";
+        ytitle = "deg";
+        xtitle = "move (from step)";
+      }
+      Plotly.newPlot(div, traces, {title: {text: title, font: {size: 13}}, margin: {t: 30, b: 40},
+                                   xaxis: {title: {text: xtitle}}, yaxis: {title: {text: ytitle}},
+                                   legend: {orientation: "h"}}, {displaylogo: false, responsive: true});
+    }
+  }
+
+  async function residuals() {
+    try {
+      residualPlots(await lab.get("/api/session/" + encodeURIComponent(data.key) + "/residuals"));
+      lab.recovered();
+    } catch (e) {
+      lab.outage(e);
+      lab.text(document.getElementById("residuals-status"), "the residuals could not be fetched: " + e.message +
+               "; trying again");
+      setTimeout(residuals, 3000);
+    }
+  }
+
   let wasRunning = data.progress.status === "running";
   async function poll() {
     try {
       const d = await lab.get("/api/session/" + encodeURIComponent(data.key) + "?after=" + lastSeq);
+      lab.recovered();
       addHolds(d.holds);
       show(d.progress);
       if (d.holds.length) plot();
@@ -64,7 +116,9 @@
         setTimeout(() => window.location.reload(), 1500);   // the calibration and report are in: show them
         return;
       }
-    } catch (e) { /* try again */ }
+    } catch (e) {
+      lab.outage(e);
+    }
     setTimeout(poll, 500);
   }
 
@@ -72,4 +126,5 @@
   show(data.progress);
   plot();
   if (wasRunning) setTimeout(poll, 500);
+  if (data.calibrated) residuals();
 })();
