@@ -89,9 +89,9 @@ def _ahead_of_rounding(session: SessionData, rec: RecordingCalibration, sensor: 
     spread. Beyond, and where no noise gives the poses their spreads, the mean over all places (`noise_sigma`), or
     below half a step the spread itself.
 
-    Counts in steps of 8 under 3 counts of noise (a still log: one pose) had given its replicas 3.4-3.6 counts
-    ahead of their rounding from the mean over all places, whose spread after it put 29 of the log's statistics
-    outside that the plain twin had inside."""
+    Where the pose's mean sits on the grid matters when the noise is small against the step: counts in steps of 8
+    under 3 counts of noise spread very differently at a step's middle and at its edge, so the mean over all places
+    would give the replicas too much noise."""
     spread = np.sqrt(np.sum(weights * spreads ** 2, axis=0) / np.sum(weights, axis=0))
     if q is None and session.meta.get("units", {}).get(sensor, "counts") == "counts":
         q = np.ones(3)

@@ -1,5 +1,5 @@
 """The simulation's twin of a real recording: the same poses and motions, the parameters fitted to it, the noise
-model the simulator uses, run many times through the same calibration and statistics (issue 13, item 3). This is
+model the simulator uses, run many times through the same calibration and statistics. This is
 the replay every replica shares (`procedures.twin_replicas` runs them): the recording's motion, sensors and
 environment, reconstructed once.
 

@@ -157,7 +157,7 @@ def _section(raw: dict, name: str, cls, where: str):
                 and not value.is_integer():
             raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a whole number")
         if (isinstance(default, str) or default is None) and not isinstance(value, str):
-            # url = 5 or profile = 5 used to pass here and crash deep in the turntable client (exit 70)
+            # a number where a URL or a profile name belongs would otherwise reach the turntable client
             raise ValueError(f"{where}: [{name}] {key} = {value!r} must be a string")
         if numeric and (name, key) in RANGES:
             lo, hi, why = RANGES[name, key]
