@@ -32,7 +32,7 @@ SENSORS = ("accel", "gyro", "mag")
 @click.option("--no-replay", is_flag=True, help="Skip replaying the schedule in the simulator.")
 @click.option("--replicas", type=click.IntRange(10, 1000), default=None,
               help="Replicas of a recording's twin (recordings without a turntable); default 99, whose extremes are "
-              "the 1-99 %% band, fewer for a long recording (down to 40) to stay within about 30 s.")
+              "the 1-99 % band, fewer for a long recording (down to 40) to stay within about 30 s.")
 @click.option("--heldout", is_flag=True,
               help="Recordings: also score the held-out predictions before and after the named model effects are "
                    "taken into the calibration (slower: every piece left out and refitted twice).")
