@@ -125,7 +125,8 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
               "findings": findings,
               "candidates": [{"effect": c["effect"], "sensor": c["sensor"], "score": float(len(c["brings_back"])),
                               "pushed_out": len(c["pushes_out"]), "kept": kept,
-                              "significant": bool(kept and c["brings_back"])}
+                              "significant": bool(kept and c["brings_back"]),
+                              "statistics_brought_back": c["brings_back"], "statistics_pushed_out": c["pushes_out"]}
                              for kept, group in ((True, twin["causes"]), (False, twin.get("dropped", [])))
                              for c in group],
               "unexplained": twin["unexplained"], "not_analysed": sorted(twin["not_analysed"]), "twin": twin}
@@ -198,7 +199,7 @@ def twin_markdown(report: dict, files: list[Path]) -> str:
                   "| --- | --- | --- | --- | --- |"]
         lines += [f"| {c['effect']} | {c['sensor']} | {c['magnitude']:.4g} {c['unit']} | {len(c['brings_back'])} | "
                   f"{len(c['pushes_out'])} |" for c in dropped]
-    for kept, group in (("", twin["causes"]), (" (not kept)", dropped)):
+    for kept, group in ((" (kept)", twin["causes"]), (" (not kept)", dropped)):
         for c in group:
             lines += ["", f"### {c['effect']} on {c['sensor']}{kept}", "",
                       "Brought back inside: " + (", ".join(f"`{n}`" for n in c["brings_back"]) or "none") + ".", "",
