@@ -90,8 +90,8 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
         "summary": {"statistics": len(before), "inside_before": len(before) - len(off),
                     "inside_after": len(after) - len(still), "outside_before": sorted(off),
                     "outside_after": sorted(still)},
-        "causes": [_cause_report(c) for c in causes],
-        "dropped": [_cause_report(c) for c in dropped],
+        "causes": [_cause_report(c, kept=True) for c in causes],
+        "dropped": [_cause_report(c, kept=False) for c in dropped],
         "keep_rule": "a cause is kept where it brings more statistics back inside their band than it pushes out",
         "unexplained": sorted(still),
         "model_tests": tests,
@@ -108,9 +108,11 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     }
 
 
-def _cause_report(c: Cause) -> dict:
+def _cause_report(c: Cause, *, kept: bool) -> dict:
+    """A cause tried as an extension: what it brought back inside their band and pushed out of it (in the last
+    round of replicas it ran in), and whether the keep rule kept it."""
     return {"effect": c.effect, "sensor": c.sensor, "magnitude": c.magnitude, "unit": c.unit, "params": c.params,
-            "brings_back": sorted(c.brings_back), "pushes_out": sorted(c.pushes_out)}
+            "brings_back": sorted(c.brings_back), "pushes_out": sorted(c.pushes_out), "kept": kept}
 
 
 def kept_causes(causes: list[Cause], replay_for: Callable[[list[Cause]], Replay], real: dict, off: set[str],

@@ -32,7 +32,7 @@ SENSORS = ("accel", "gyro", "mag")
 @click.option("--no-replay", is_flag=True, help="Skip replaying the schedule in the simulator.")
 @click.option("--replicas", type=click.IntRange(10, 1000), default=None,
               help="Replicas of a recording's twin (recordings without a turntable); default 99, whose extremes are "
-              "the 1-99 %% band, fewer for a long recording (down to 40) to stay within about 30 s.")
+              "the 1-99 % band, fewer for a long recording (down to 40) to stay within about 30 s.")
 @click.option("--heldout", is_flag=True,
               help="Recordings: also score the held-out predictions before and after the named model effects are "
                    "taken into the calibration (slower: every piece left out and refitted twice).")
@@ -130,7 +130,8 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
               "findings": findings,
               "candidates": [{"effect": c["effect"], "sensor": c["sensor"], "score": float(len(c["brings_back"])),
                               "pushed_out": len(c["pushes_out"]), "kept": kept,
-                              "significant": bool(kept and c["brings_back"])}
+                              "significant": bool(kept and c["brings_back"]),
+                              "statistics_brought_back": c["brings_back"], "statistics_pushed_out": c["pushes_out"]}
                              for kept, group in ((True, twin["causes"]), (False, twin.get("dropped", [])))
                              for c in group],
               "unexplained": twin["unexplained"], "not_analysed": sorted(twin["not_analysed"]), "twin": twin}
@@ -203,7 +204,7 @@ def twin_markdown(report: dict, files: list[Path]) -> str:
                   "| --- | --- | --- | --- | --- |"]
         lines += [f"| {c['effect']} | {c['sensor']} | {c['magnitude']:.4g} {c['unit']} | {len(c['brings_back'])} | "
                   f"{len(c['pushes_out'])} |" for c in dropped]
-    for kept, group in (("", twin["causes"]), (" (not kept)", dropped)):
+    for kept, group in ((" (kept)", twin["causes"]), (" (not kept)", dropped)):
         for c in group:
             lines += ["", f"### {c['effect']} on {c['sensor']}{kept}", "",
                       "Brought back inside: " + (", ".join(f"`{n}`" for n in c["brings_back"]) or "none") + ".", "",

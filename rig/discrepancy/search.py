@@ -3,7 +3,7 @@
 Each round tests every remaining candidate of every sensor against that sensor's current model (the
 linear model plus the effects accepted so far), Holm-corrects all (candidate, axis) p-values of the
 round together, and accepts per sensor the candidate with the lowest delta-BIC among those that pass
-all three gates: Holm p < alpha, delta-BIC < -10, held-out gain (Wilcoxon p < 0.05, gain > 5 %).
+all three gates: Holm p < alpha, delta-BIC < -10, held-out gain (Wilcoxon p < 0.05, gain > 2 %, GAIN_MIN).
 Two candidates are reported as ambiguous when both pass and the winner is no longer significant
 once the other is in the model: the data cannot tell them apart.
 """
