@@ -10,7 +10,7 @@ writer) and the report, and record a status that says how it ended:
 - aborted: a stop signal (the signal named), the table stopped and disabled;
 - failed: a fault (hardware, communication, the data, the disk), named; recorded holds are kept.
 
-A resumed run starts by holding again at the last orientation recorded (procedures.calibration.run_session),
+A resumed run starts by holding again at the last orientation recorded (procedures.move_and_hold.run_session),
 and the clock gap before it is recorded (`SessionStore.mark_resume`), so no move is integrated across an
 interruption and none is stored twice. Nothing here prints or exits: the command shows the `Outcome`.
 """

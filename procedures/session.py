@@ -13,7 +13,7 @@ from typing import Callable
 
 import numpy as np
 
-from procedures.calibration import MotionSettings, run_session
+from procedures.move_and_hold import MotionSettings, run_session
 from procedures.hold_quality import HoldTarget
 from rig.schedule import Orientation, plan_orientations, schedule_rotations
 from rig import __version__

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procedures.acquisition import Sampler
-from procedures.calibration import HOLD_POLL_S, MotionSettings, arm_table, position_table
+from procedures.move_and_hold import HOLD_POLL_S, MotionSettings, arm_table, position_table
 from rig.schedule import Orientation
 from procedures.reference import interpolate_angles
 from rig.clock import Clock

@@ -53,7 +53,7 @@ SUBCOMMANDS: dict[str, tuple[str, str] | str] = {
                "Every calibration of a unit, oldest first, with drift flagged against the uncertainty."),
     "compare-rigs": ("rig.commands.lab:compare_rigs",
                     "The same (golden) unit on every rig: rig-to-rig differences with their uncertainty, "
-                    "rigs that stand out."),
+                    "rigs that stand out, rigs that disagree with themselves."),
     "pass-fail": ("rig.commands.lab:pass_fail",
                  "Sessions by day and rig: complete (PASS), rejected (FAIL), failed, aborted, running."),
     "serve": ("rig.commands.lab_web:serve",

@@ -3,7 +3,7 @@
 An entry says what the effect is called, which sensors it acts on, the unit its magnitude is reported in, and who
 looks for it: the discrepancy analysis of a turntable session (`family="model"`, a candidate test in
 `rig.discrepancy.candidates`) or the twin of a recording (`family="noise"`, fitted from the noise statistics by
-`procedures.twin_extension`). The simulated world's terms (`fixtures.world.effects`) and the analysis's candidate
+`procedures.twin.extension`). The simulated world's terms (`fixtures.world.effects`) and the analysis's candidate
 tests register themselves against these names, one module per effect, found by `discover`;
 `tests/rig/test_effects_registry.py` checks that every entry has its simulator term, its draw range and its
 candidate test, or says why it has none.

@@ -5,7 +5,7 @@ A sensor the analysis could not test is said on the terminal, in the JSON (`skip
 the report's summary, and the exit code is 1: "nothing missing" is only claimed of what was analysed.
 
 A recording without a turntable (no reference orientations) is compared with its simulated twin instead
-(procedures.twin_analysis): every statistic against the replicas' band, the noise and recording effects that
+(procedures.twin.analysis): every statistic against the replicas' band, the noise and recording effects that
 explain what falls outside, and what stays unexplained (`twin` in the JSON, plots in the report folder).
 """
 
@@ -99,8 +99,8 @@ def discrepancy(session_dir, json_out, report_dir, no_replay, replicas, heldout)
 def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | None, replicas: int | None,
                heldout: bool = False) -> None:
     """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
-    from procedures.twin_analysis import analyse_twin
-    from procedures.twin_gyroless import analyse_gyroless_twin
+    from procedures.twin.analysis import analyse_twin
+    from procedures.twin.gyroless import analyse_gyroless_twin
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
 

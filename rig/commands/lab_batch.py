@@ -25,8 +25,10 @@ from rig.exits import CommandError, Exit, stop_signals_raise
 @click.option("--replay", is_flag=True, help="discrepancy: also replay each schedule in the simulator (slower).")
 @json_option
 def batch(kind, store_url, where, scheduler, workers, method, replay, json_out):
-    """Re-run calibration or the discrepancy analysis over stored sessions; results go back to the store, a
-    re-calibration beside the rig's own with its verdict (exit 1 when a verdict is FAIL)."""
+    """Re-run calibration or the discrepancy analysis over stored sessions; results go back to the store.
+
+    A re-calibration is stored beside the rig's own result, with its verdict by the rig's limits; the exit code
+    is 1 when a verdict is FAIL."""
     from rig.lab.batch import run_batch
     from rig.lab.errors import is_database_url
     from rig.lab.records import Filters

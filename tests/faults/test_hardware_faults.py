@@ -101,9 +101,9 @@ def test_a_sensor_silent_for_a_second_ends_the_session_naming_it(tmp_path):
 
 
 def test_a_hold_that_keeps_moving_is_a_fault_of_the_rig_not_a_bug(tmp_path, monkeypatch):
-    import procedures.calibration
+    import procedures.move_and_hold
 
-    monkeypatch.setattr(procedures.calibration, "hold_has_motion", lambda rec, rate_hz: "gyro x: knocked")
+    monkeypatch.setattr(procedures.move_and_hold, "hold_has_motion", lambda rec, rate_hz: "gyro x: knocked")
     outcome = run(tmp_path / "s", config())
     assert outcome.status == "failed" and outcome.error_log is None
     assert "hold 0 kept moving in all 3 attempts" in outcome.reason

@@ -110,7 +110,7 @@ def test_a_move_that_never_arrives_fails_with_the_table_stopped_and_disabled():
 
 
 def test_a_hold_that_never_stops_moving_fails_after_three_attempts_and_stores_nothing_of_it():
-    from procedures.calibration import HoldFailed
+    from procedures.move_and_hold import HoldFailed
 
     with sim_rig() as rig:
         rig.board.start()

@@ -16,7 +16,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_unseen_recordings import gyro_not_calibrated, one_clear_line, rig  # noqa: E402
 
-from procedures.twin_analysis import analyse_twin  # noqa: E402
+from procedures.twin.analysis import analyse_twin  # noqa: E402
 from rig.io.session_csv import read_session  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "mpu6050-tomisuarez2"

@@ -1,4 +1,4 @@
-"""How precisely a twin's white noise level is known (`procedures.twin_draws.level_dof`): the replicas draw their
+"""How precisely a twin's white noise level is known (`procedures.twin.draws.level_dof`): the replicas draw their
 level from it, the plain twin's and the extension's alike, so it must be the scatter the recording's own estimate
 has, the quiet poses' selection included."""
 
@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from procedures.twin_draws import level_dof
-from procedures.twin_noise import quiet_spread
+from procedures.twin.draws import level_dof
+from procedures.twin.noise import quiet_spread
 from rig.calibration.recording import RecordingCalibration
 from rig.calibration.segments import Pose
 from rig.io.recording import recording_session

@@ -16,11 +16,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_unseen_recordings import rig  # noqa: E402
 
 from fixtures.world.recorded import HeldAttitude, RecordedAttitude  # noqa: E402
-from procedures.twin_analysis import analyse_twin  # noqa: E402
-from procedures.twin_motion import ReplayedAttitude  # noqa: E402
-from procedures.twin_draws import drawn_level, noise_dof  # noqa: E402
-from procedures.twin_replay import reconstruct  # noqa: E402
-from procedures.twin_replicas import replica  # noqa: E402
+from procedures.twin.analysis import analyse_twin  # noqa: E402
+from procedures.twin.motion import ReplayedAttitude  # noqa: E402
+from procedures.twin.draws import drawn_level, noise_dof  # noqa: E402
+from procedures.twin.replay import reconstruct  # noqa: E402
+from procedures.twin.replicas import replica  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 from rig.noise.still import sample_noise  # noqa: E402

@@ -17,9 +17,9 @@ from inject import inject  # noqa: E402
 from test_magnetometer_recordings import hand_session  # noqa: E402
 from test_unseen_recordings import G, recording  # noqa: E402
 
-from procedures.twin_bands import bands, default_replicas  # noqa: E402
-from procedures.twin_analysis import analyse_twin  # noqa: E402
-from procedures.twin_extension import spectral_taps, white_peak_chance  # noqa: E402
+from procedures.twin.bands import bands, default_replicas  # noqa: E402
+from procedures.twin.analysis import analyse_twin  # noqa: E402
+from procedures.twin.extension import spectral_taps, white_peak_chance  # noqa: E402
 from fixtures.world.effects.noise import peak_density_ratio  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
@@ -156,7 +156,7 @@ def test_taking_the_named_g_sensitivity_into_the_calibration_improves_what_it_pr
     """The extension measured on item 2's held-out scores: a gyro of 1 deg/s per g (untreated MEMS, effects-research
     E3) spoils the gravity carried across a left-out motion; with the g-sensitivity the recording tests found
     removed from the gyro before every refit, the prediction comes back to that of the same recording without it."""
-    from procedures.twin_model import heldout_change, model_causes
+    from procedures.twin.model import heldout_change, model_causes
     from rig.calibration.heldout import heldout_scores
 
     session, _ = generate(5, face_s=8.0)

@@ -13,9 +13,9 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 
-from procedures.twin_motion import align, attitudes  # noqa: E402
-from procedures.twin_replay import reconstruct, twin_view  # noqa: E402
-from procedures.twin_replicas import Background, ReplicaJob, replica_runs, replica_statistics  # noqa: E402
+from procedures.twin.motion import align, attitudes  # noqa: E402
+from procedures.twin.replay import reconstruct, twin_view  # noqa: E402
+from procedures.twin.replicas import Background, ReplicaJob, replica_runs, replica_statistics  # noqa: E402
 from rig.calibration.recording import calibrate_recording  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.noise.statistics import _distinct, band_powers  # noqa: E402

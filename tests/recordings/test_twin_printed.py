@@ -12,8 +12,8 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from hand_motions import hand_recording, hand_session  # noqa: E402
 
-from procedures.twin_analysis import analyse_twin  # noqa: E402
-from procedures.twin_printed import Printed, printed_form  # noqa: E402
+from procedures.twin.analysis import analyse_twin  # noqa: E402
+from procedures.twin.printed import Printed, printed_form  # noqa: E402
 
 
 def printed(x: np.ndarray, form: str) -> np.ndarray:

@@ -45,8 +45,8 @@ LAZY_ALLOWED = {
                                                       "the environment; the Modbus server (pymodbus) only when a test "
                                                       "asks for the fake turntable",
     ("fixtures.world.effects.noise", "scipy.signal"): "start-up: scipy.signal only when a coloured noise is drawn",
-    ("procedures.twin_extension", "scipy.signal"): "start-up: scipy.signal only when a recording's spectrum is fitted",
-    ("procedures.twin_hold", "scipy.signal"): "start-up: scipy.signal only when a pose's tilt is measured",
+    ("procedures.twin.extension", "scipy.signal"): "start-up: scipy.signal only when a recording's spectrum is fitted",
+    ("procedures.twin.hold", "scipy.signal"): "start-up: scipy.signal only when a pose's tilt is measured",
 }
 
 

@@ -11,11 +11,11 @@ from scipy.stats import chi2
 
 from fixtures.world.effects.noise import HoldNotStill, ShapedNoise
 from fixtures.world.effects.vibration import Vibration
-from procedures.twin_cause import Cause
-from procedures.twin_draws import extension_level, level_dof
-from procedures.twin_noise import pose_spreads, quiet_noise, quiet_poses, quiet_spread, sampled_rows
-from procedures.twin_replay import Replay
-from procedures.twin_vibration import Split, rate_across_gravity, split_by_gyro
+from procedures.twin.cause import Cause
+from procedures.twin.draws import extension_level, level_dof
+from procedures.twin.noise import pose_spreads, quiet_noise, quiet_poses, quiet_spread, sampled_rows
+from procedures.twin.replay import Replay
+from procedures.twin.vibration import Split, rate_across_gravity, split_by_gyro
 from rig.calibration.recording import RecordingCalibration
 from rig.session_data import SessionData
 
@@ -29,7 +29,7 @@ def held_poses(session: SessionData, rec: RecordingCalibration, replay: Replay, 
                rate: np.ndarray | None) -> list[Cause]:
     """The causes of poses whose spreads are out of their band (`spreads_off`: "gyro.spread", "accel.spread"): a
     rotation (`hold_not_still`), which a gyro present must read, and what the accelerometer shows beyond what the
-    gyro's rate in the same poses gives (`vibration`, `procedures.twin_vibration`), each where it is so.
+    gyro's rate in the same poses gives (`vibration`, `procedures.twin.vibration`), each where it is so.
 
     The accelerometer's disturbance is vibration where its larger part is not the gyro's rotation and stands clear of
     the periodograms' own scatter (VIBRATION_SIGMAS); the rotation then takes only the share the gyro gives, beside
@@ -42,7 +42,7 @@ def held_poses(session: SessionData, rec: RecordingCalibration, replay: Replay, 
     spreads were out: a hand's turn named from the gyro had taken a vibration the gyro never saw for its own, with a
     rotation's low-frequency wander, and pushed the norm scatter out.
 
-    `rate` is the gyro's rate in rad/s where the recording says it (`twin_vibration.gyro_rate`); without it (a gyro
+    `rate` is the gyro's rate in rad/s where the recording says it (`procedures.twin.vibration.gyro_rate`); without it (a gyro
     in counts that could not be calibrated, or none) nothing contradicts the accelerometer, and its disturbance is
     the rotation it shows."""
     quiet = {s: quiet_spread(session, rec, s) for s in ("gyro", "accel") if s in replay.sensors}

@@ -1,10 +1,10 @@
 """The twin of a recording without a gyroscope (a magnetometer alone, an accelerometer alone, or both): the
-recording replayed at the attitudes its own directions give (`procedures.twin_directions`), its replicas
-calibrated as it was and compared on the statistics of the sensors it holds (`procedures.twin_field_statistics`).
-The report is `rig-twin/1`, as `procedures.twin_analysis` writes it for a recording with a gyroscope; the
+recording replayed at the attitudes its own directions give (`procedures.twin.directions`), its replicas
+calibrated as it was and compared on the statistics of the sensors it holds (`procedures.twin.field_statistics`).
+The report is `rig-twin/1`, as `procedures.twin.analysis` writes it for a recording with a gyroscope; the
 recording tests of the poses (the gyro's g-sensitivity, its delay, its drift) and the noise effects read off held
 poses need what such a recording lacks and are not run; the cause a recording without a gyroscope can show alone,
-a magnetometer's offset that steps (`procedures.twin_offset_flip`), is proposed where its norm shows one."""
+a magnetometer's offset that steps (`procedures.twin.offset_flip`), is proposed where its norm shows one."""
 
 from __future__ import annotations
 
@@ -13,15 +13,15 @@ import time
 import numpy as np
 
 from fixtures.world.model import SensorModel
-from procedures.twin_analysis import SCHEMA, kept_causes
-from procedures.twin_bands import band_chance, bands, default_replicas
-from procedures.twin_cause import Cause
-from procedures.twin_directions import reconstruct_from_directions
-from procedures.twin_extension import family, outside
-from procedures.twin_field_statistics import field_statistics, reference_norm
-from procedures.twin_offset_flip import OffsetFlip, offset_flip
-from procedures.twin_replay import Replay
-from procedures.twin_replicas import ReplicaJob, replica_runs
+from procedures.twin.analysis import SCHEMA, kept_causes
+from procedures.twin.bands import band_chance, bands, default_replicas
+from procedures.twin.cause import Cause
+from procedures.twin.directions import reconstruct_from_directions
+from procedures.twin.extension import family, outside
+from procedures.twin.field_statistics import field_statistics, reference_norm
+from procedures.twin.offset_flip import OffsetFlip, offset_flip
+from procedures.twin.replay import Replay
+from procedures.twin.replicas import ReplicaJob, replica_runs
 from rig.calibration.recording import calibrate_recording
 from rig.calibration.threads import one_blas_thread
 from rig.errors import CalibrationError

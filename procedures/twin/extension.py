@@ -5,7 +5,7 @@ noise and recording effect of the vocabulary (effects.md, "Noise and recording e
 recording alone, by its own estimator, and proposed when a statistic it governs is out of band. The replicas are
 run again with all proposed effects, and with each alone: a statistic that comes back inside is named by the
 effects that bring it back alone (or all of them, when only together); one that stays outside is `unexplained`.
-The poses a hand held are `procedures.twin_hold`'s; a spectrum is another colour only beyond what white noise's own
+The poses a hand held are `procedures.twin.hold`'s; a spectrum is another colour only beyond what white noise's own
 estimate shows (`white_peak_chance`).
 """
 
@@ -17,12 +17,12 @@ import numpy as np
 
 from fixtures.world.effects.noise import (BiasInstability, Quantisation, RateRandomWalk, Saturation, ShapedNoise,
                                           peak_density_ratio)
-from procedures.twin_bands import band_chance
-from procedures.twin_cause import Cause
-from procedures.twin_hold import held_poses
-from procedures.twin_draws import extension_level, level_dof
-from procedures.twin_noise import pooled_noise, quiet_noise, sampled_rows
-from procedures.twin_replay import Replay
+from procedures.twin.bands import band_chance
+from procedures.twin.cause import Cause
+from procedures.twin.hold import held_poses
+from procedures.twin.draws import extension_level, level_dof
+from procedures.twin.noise import pooled_noise, quiet_noise, sampled_rows
+from procedures.twin.replay import Replay
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.stats import holm
 from rig.noise.allan import allan_deviation, fit_noise
@@ -69,8 +69,8 @@ def family(name: str) -> str:
 def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, real: dict, bands: dict,
             off: set[str], replicas: int, rate: np.ndarray | None = None) -> list[Cause]:
     """The effects the real recording shows, each fitted from it, where a family of statistics it governs is out of
-    band beyond chance (`off_families`). `rate`: the gyro's rate in rad/s (`twin_vibration.gyro_rate`), which a
-    disturbance the accelerometer shows must agree with to be a rotation (`twin_hold.held_poses`)."""
+    band beyond chance (`off_families`). `rate`: the gyro's rate in rad/s (`procedures.twin.vibration.gyro_rate`), which a
+    disturbance the accelerometer shows must agree with to be a rotation (`procedures.twin.hold.held_poses`)."""
     causes, floors = [], {}
     longest = max(rec.poses, key=lambda p: len(p.rows))
     fams = off_families(real, bands, off, replicas)

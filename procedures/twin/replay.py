@@ -1,6 +1,6 @@
 """The simulation's twin of a real recording: the same poses and motions, the parameters fitted to it, the noise
 model the simulator uses, run many times through the same calibration and statistics. This is
-the replay every replica shares (`procedures.twin_replicas` runs them): the recording's motion, sensors and
+the replay every replica shares (`procedures.twin.replicas` runs them): the recording's motion, sensors and
 environment, reconstructed once.
 
 Reconstruction: each static pose keeps the gravity direction the calibrated accelerometer measured there; between
@@ -20,10 +20,10 @@ import numpy as np
 from fixtures.world.effects_base import Effect
 from fixtures.world.model import AttitudeMotion, Environment, SensorModel
 from fixtures.world.recorded import HeldAttitude, RecordedAttitude
-from procedures.twin_motion import ReplayedAttitude, attitudes, unit
-from procedures.twin_draws import noise_dof
-from procedures.twin_noise import sampled_rows, white_noise
-from procedures.twin_printed import Printed, printed_forms
+from procedures.twin.motion import ReplayedAttitude, attitudes, unit
+from procedures.twin.draws import noise_dof
+from procedures.twin.noise import sampled_rows, white_noise
+from procedures.twin.printed import Printed, printed_forms
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
@@ -51,7 +51,7 @@ class Replay:
     noise_dof: dict[str, float] | None = None  # degrees of freedom of each white noise level estimated from the poses
     hand: np.ndarray | None = None        # (n, 3) m/s^2 the accelerometer reads beside gravity through the motions
     # what every replica is reduced to, given its calibration: the recording's statistics (a recording without a
-    # gyroscope has no poses held to read them on: `procedures.twin_field_statistics`)
+    # gyroscope has no poses held to read them on: `procedures.twin.field_statistics`)
     statistics: Callable[[SessionData, RecordingCalibration], dict[str, float]] = recording_statistics
     # sensor -> (step, origin) per axis, raw units: the grid the recording's values lie on, onto which a replica's
     # are rounded in place of counts (a step 0: an axis on no grid, in full precision or in its printed form)

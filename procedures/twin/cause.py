@@ -1,6 +1,6 @@
 """A cause the twin names: an effect of the vocabulary (effects.md), fitted from the recording, with the world's terms
-that put it into a replica and the statistics it governs (`procedures.twin_extension` proposes them,
-`procedures.twin_model` and `procedures.twin_hold` build some)."""
+that put it into a replica and the statistics it governs (`procedures.twin.extension` proposes them,
+`procedures.twin.model` and `procedures.twin.hold` build some)."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ class Cause:
     # sensor -> the terms of its white noise at the level this cause needs beneath it (the quiet poses' where a hand
     # disturbed the others), shared with any other cause that names the same: given once in a replica
     floor: dict[str, Callable[[int], list]] = field(default_factory=dict)
-    model: bool = False                            # found by a recording test (`procedures.twin_model`)
+    model: bool = False                            # found by a recording test (`procedures.twin.model`)
 
     @property
     def unit(self) -> str:

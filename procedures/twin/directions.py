@@ -1,4 +1,4 @@
-"""The replay of a recording without a gyroscope (`procedures.twin_gyroless`): nothing measures how the fixture
+"""The replay of a recording without a gyroscope (`procedures.twin.gyroless`): nothing measures how the fixture
 turned, so its attitude at every sample is what the data say of it, the calibrated direction of gravity (an
 accelerometer), of the field (a magnetometer) or both (TRIAD, Black 1964: the attitude whose two reference
 directions are the measured ones, the first exactly). The directions are the calibrated samples smoothed over a
@@ -16,9 +16,9 @@ from scipy.spatial.transform import Rotation
 
 from fixtures.world.model import Environment, SensorModel
 from fixtures.world.recorded import RecordedAttitude
-from procedures.twin_motion import ReplayedAttitude
-from procedures.twin_printed import printed_forms
-from procedures.twin_replay import Replay
+from procedures.twin.motion import ReplayedAttitude
+from procedures.twin.printed import printed_forms
+from procedures.twin.replay import Replay
 from rig.calibration.quantisation import noise_sigma
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError

@@ -1,4 +1,4 @@
-"""The motion of a twin's replay (`procedures.twin_replay`): the fixture's attitude at every sample of the recording,
+"""The motion of a twin's replay (`procedures.twin.replay`): the fixture's attitude at every sample of the recording,
 turned onto each pose's gravity direction where the pose begins and carried by the calibrated rate between poses
 (`attitudes`), and that attitude evaluated once on the recording's own time grid for every replica to sense
 (`ReplayedAttitude`)."""

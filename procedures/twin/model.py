@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 
 from fixtures.world import EFFECTS
-from procedures.twin_cause import Cause
+from procedures.twin.cause import Cause
 from rig.calibration.heldout import heldout_scores
 from rig.calibration.recording import RecordingCalibration
 from rig.discrepancy.recording import recording_tests
@@ -44,7 +44,7 @@ def centred(causes: list[Cause], before: dict) -> list[Cause]:
 
 def added_rate(causes: list[Cause]) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
     """What the gyro causes add to the rate (rad/s) at times t and calibrated specific force f (m/s^2): the
-    twin's replayed motion is the recording's gyro less this (`procedures.twin_replay.reconstruct`)."""
+    twin's replayed motion is the recording's gyro less this (`procedures.twin.replay.reconstruct`)."""
     terms = [c.rate for c in causes if c.rate is not None]
     if not terms:
         return None

@@ -1,6 +1,6 @@
 """How precisely a twin's noise levels are known, and the level each replica draws from them: the degrees of
 freedom of each estimate (the plain twin's pooled level, the quiet poses' level, the noise ahead of a rounding) and
-the chi-square draw a replica makes with them (`procedures.twin_noise` finds the levels themselves)."""
+the chi-square draw a replica makes with them (`procedures.twin.noise` finds the levels themselves)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import zlib
 
 import numpy as np
 
-from procedures.twin_noise import pose_spreads, quiet_mask, quiet_variance, sampled_rows
+from procedures.twin.noise import pose_spreads, quiet_mask, quiet_variance, sampled_rows
 from rig.calibration.recording import RecordingCalibration
 from rig.noise.still_log import is_still_log_calibration
 from rig.session_data import SessionData

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from procedures.twin_noise import quiet_poses
+from procedures.twin.noise import quiet_poses
 from rig.calibration.recording import RecordingCalibration
 from rig.session_data import SessionData
 from rig.units import DEG

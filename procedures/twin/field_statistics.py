@@ -1,4 +1,4 @@
-"""The statistics a twin compares on a recording without a gyroscope (`procedures.twin_gyroless`): every sample of
+"""The statistics a twin compares on a recording without a gyroscope (`procedures.twin.gyroless`): every sample of
 every calibrated sensor, still or not, since no rate says which were held. Per sensor: the calibrated norm against
 the environment's (its scatter, its mean, and its mean over each tenth of the recording, which a change in time,
 an offset that steps, moves), the white noise its second differences show per axis, the step of the grid its
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from procedures.twin_directions import second_difference_noise
+from procedures.twin.directions import second_difference_noise
 from rig.calibration.recording import RecordingCalibration
 from rig.noise.statistics import STEP_DIGITS, pinned_fraction, quantum
 from rig.session_data import SessionData

@@ -1,4 +1,4 @@
-"""`mag_offset_flip` fitted from a magnetometer's own samples, for a twin without poses (`procedures.twin_gyroless`):
+"""`mag_offset_flip` fitted from a magnetometer's own samples, for a twin without poses (`procedures.twin.gyroless`):
 an offset that steps at one instant leaves the calibrated norm off by the step's share along the field,
 |u| - F ~ d . c + d^T M d on one side of the instant and d . (c + s) + d^T M d on the other (d the field's
 direction; c and M what the calibration's centre and shape, fitted across the step, leave: `compromise`). The
@@ -18,7 +18,7 @@ from scipy.stats import chi2
 from scipy.stats import f as f_distribution
 
 from fixtures.world.effects.mag_offset_flip import MagOffsetFlip
-from procedures.twin_cause import Cause
+from procedures.twin.cause import Cause
 from rig.calibration.recording import RecordingCalibration
 from rig.session_data import SessionData
 

@@ -11,13 +11,13 @@ from contextlib import nullcontext
 import numpy as np
 from scipy.stats import fisher_exact
 
-from procedures.twin_bands import band_chance, bands, default_replicas
-from procedures.twin_cause import Cause, quiet_of, terms_of
-from procedures.twin_extension import family, outside, propose
-from procedures.twin_model import added_rate, centred, heldout_change, model_causes
-from procedures.twin_replay import Replay, poses_alone, reconstruct, twin_view
-from procedures.twin_replicas import Background, ReplicaJob, replica_runs
-from procedures.twin_vibration import gyro_rate
+from procedures.twin.bands import band_chance, bands, default_replicas
+from procedures.twin.cause import Cause, quiet_of, terms_of
+from procedures.twin.extension import family, outside, propose
+from procedures.twin.model import added_rate, centred, heldout_change, model_causes
+from procedures.twin.replay import Replay, poses_alone, reconstruct, twin_view
+from procedures.twin.replicas import Background, ReplicaJob, replica_runs
+from procedures.twin.vibration import gyro_rate
 from rig.calibration.recording import RecordingCalibration, calibrate_recording
 from rig.calibration.threads import one_blas_thread
 from rig.noise.statistics import recording_statistics

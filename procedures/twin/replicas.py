@@ -1,7 +1,7 @@
 """A twin's replicas: one replica is the world (`fixtures.world`) sensing the replayed motion
-(`procedures.twin_replay`) with `y = inv(H) u + B` of the recording's own calibration, white noise of the
-recording's own size in every pose (`procedures.twin_noise`), counts rounded where the recording is in counts and
-values in physical units written as the recording's were (`procedures.twin_printed`);
+(`procedures.twin.replay`) with `y = inv(H) u + B` of the recording's own calibration, white noise of the
+recording's own size in every pose (`procedures.twin.noise`), counts rounded where the recording is in counts and
+values in physical units written as the recording's were (`procedures.twin.printed`);
 effects of the vocabulary can be added to it (`effects`), which is how the extension is measured. Replicas are
 independent, so many run at once in forked worker processes (`procedures.fork_pool`, which leave stop signals to
 this one), each calibrated and reduced to its statistics there;
@@ -18,8 +18,8 @@ import numpy as np
 
 from fixtures.world.model import SensorModel, World
 from procedures.fork_pool import ForkPool, fork_available
-from procedures.twin_draws import drawn_level
-from procedures.twin_replay import HandAcceleration, Replay
+from procedures.twin.draws import drawn_level
+from procedures.twin.replay import HandAcceleration, Replay
 from rig.errors import CalibrationError
 from rig.io.recording import recording_session
 from rig.session_data import SessionData

@@ -1,6 +1,6 @@
 """The white noise and rounding of a twin's replicas, as the recording shows them: each sensor's noise level pooled
 over the recording's static poses and the level of the poses a hand left alone (how precisely those levels are known, and what one replica draws from them:
-`procedures.twin_draws`). Apart from the replay's motion (`procedures.twin_replay`): these say how the recording's noise looks, not
+`procedures.twin.draws`). Apart from the replay's motion (`procedures.twin.replay`): these say how the recording's noise looks, not
 where the fixture was."""
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ def quiet_spread(session: SessionData, rec: RecordingCalibration, sensor: str) -
 
 def quiet_variance(spreads: np.ndarray, n: np.ndarray) -> np.ndarray:
     """(..., 3) the quiet poses' variances pooled by degrees of freedom, for spreads (..., poses, 3) of n samples each
-    (a stack of recordings drawn again: `twin_draws`)."""
+    (a stack of recordings drawn again: `procedures.twin.draws`)."""
     w = quiet_mask(spreads, n) * (n[:, None] - 1.0)
     return np.sum(w * spreads ** 2, axis=-2) / np.sum(w, axis=-2)
 
