@@ -31,12 +31,13 @@ from rig.calibration.recording_checks import (
 )
 from rig.calibration.recording_gyro import fit_gyro, summed_rate, whole_carries
 from rig.calibration.recording_mag import calibrate_recording_mag
+from rig.calibration.quasi_static import quasi_static_accel, still_intervals
 from rig.calibration.recording_vector import vector_fit
 from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.static_segments import check_static_segments
-from rig.calibration.turntable_free import checked, describe_rest, turntable_free_accel
+from rig.calibration.turntable_free import MIN_INTERVALS, checked, describe_rest, turntable_free_accel
 from rig.calibration.turntable_free_gyro import turntable_free_gyro
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
@@ -135,12 +136,15 @@ def _turn_axes(session: SessionData, sensors: dict, turns: list[Turn]) -> list[t
 
 
 def _mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list,
-         left_out_rows: np.ndarray | None) -> tuple[TriadCalibration, list[str]]:
+         left_out_rows: np.ndarray | None, quasi_static_rows: np.ndarray | None = None
+         ) -> tuple[TriadCalibration, list[str]]:
     """In the accelerometer's frame, to the local field magnitude, or the data's own where the recording has none
-    (`field_norm`)."""
+    (`field_norm`); its angle to gravity from the accelerometer's quasi-static samples where it was fitted on
+    them."""
     norm = float(session.field_uT) if session.field_uT else None
     return calibrate_recording_mag(session, accel, poses, norm, turns, left_out_rows,
-                                   raw_unit=session.meta.get("units", {}).get("mag", "counts"))
+                                   raw_unit=session.meta.get("units", {}).get("mag", "counts"),
+                                   quasi_static_rows=quasi_static_rows)
 
 
 def _without_accelerometer(session: SessionData) -> RecordingCalibration:
@@ -160,6 +164,34 @@ def _without_accelerometer(session: SessionData) -> RecordingCalibration:
     return RecordingCalibration({"mag": mag}, [], [], [], warnings + mag_warnings, refused)
 
 
+def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, rest: float | None,
+                            columns: list[str] | None, gyro: np.ndarray | None
+                            ) -> tuple[TriadCalibration, np.ndarray | None]:
+    """imu_tk's fit where the record holds MIN_INTERVALS still poses, else the norm of its quasi-static samples
+    (`quasi_static`), with the rows it was fitted on (None for imu_tk's). The static intervals imu_tk found stay
+    in the quasi-static fit's extra: a gyro beside it is still fitted across them."""
+    try:
+        poses = turntable_free_accel(t, accel, gravity=gravity, init_static_s=rest, columns=columns,
+                                     pose_means=True, gyro_raw=gyro)
+    except CalibrationError as exc:
+        poses, refused = None, exc
+    still = still_intervals(t, accel, poses.extra["intervals"]) if poses is not None else []
+    if len(still) >= MIN_INTERVALS:
+        return poses, None
+    try:
+        fit = quasi_static_accel(t, accel, gravity, still=len(still))
+    except CalibrationError as exc:
+        if poses is None:
+            raise CalibrationError(f"{refused}; nor can it be fitted without still poses: {exc}") from None
+        poses.warnings.append(f"{len(still)} of its {len(poses.extra['intervals'])} static intervals are still "
+                              f"(the others turn slowly), and its quasi-static samples do not tell it either: {exc}")
+        return poses, None
+    if poses is not None:
+        fit.calibration.extra.update({k: poses.extra[k] for k in ("intervals", "initial_rest_s", "initial_rest")
+                                      if k in poses.extra})
+    return fit.calibration, fit.rows
+
+
 def _turntable_free(session: SessionData) -> RecordingCalibration:
     """No segments: imu_tk's method, static intervals detected in the data (the initial rest too, unless the
     recording says it: meta `initial_rest_s`). A gyro that cannot be calibrated from them (poses not held still,
@@ -176,8 +208,8 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     columns = {s: imported_columns(session, s) for s in ("accel", "gyro")}
     sensors, refused = {}, {}
     try:                                                # name the recording, as every other refusal here does
-        sensors["accel"] = turntable_free_accel(t, accel, gravity=session.gravity, init_static_s=rest,
-                                                columns=columns["accel"], pose_means=True, gyro_raw=gyro)
+        sensors["accel"], quasi_rows = _accel_without_segments(t, accel, session.gravity, rest, columns["accel"],
+                                                               gyro)
         if gyro is not None:
             try:
                 sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
@@ -186,13 +218,18 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
                 refused["gyro"] = f"{session.source}: {exc}"
     except (CalibrationError, ValueError) as exc:
         raise CalibrationError(f"{session.source}: {exc}") from None
-    intervals = (sensors.get("gyro") or sensors["accel"]).extra["intervals"]
+    intervals = (sensors.get("gyro") or sensors["accel"]).extra.get("intervals", [])
     index = np.flatnonzero(rows)
     poses = [Pose(f"static {k}", index[a:b + 1], None, DEFAULT_TILT_SD_DEG) for k, (a, b) in enumerate(intervals)]
-    warnings = ["no segments: static intervals detected in the data (imu_tk's turntable-free method; "
-                f"{describe_rest(sensors['accel'].extra)})"]
+    warnings = ["no segments: " + ("static intervals detected in the data (imu_tk's turntable-free method; "
+                                   f"{describe_rest(sensors['accel'].extra)})" if quasi_rows is None else
+                                   "the accelerometer fitted to the norm of its quasi-static samples")]
     if "mag" in session.raw:
-        sensors["mag"], mag_warnings = _mag(session, sensors["accel"], poses, [], None)
-        warnings += mag_warnings
+        try:
+            sensors["mag"], mag_warnings = _mag(session, sensors["accel"], poses, [], None,
+                                                None if quasi_rows is None else index[quasi_rows])
+            warnings += mag_warnings
+        except CalibrationError as exc:                 # the other sensors are calibrated all the same
+            refused["mag"] = str(exc) if str(session.source) in str(exc) else f"{session.source}: {exc}"
     carries = [(i, i + 1) for i in sensors["gyro"].extra["whole_motions"]] if "gyro" in sensors else []
     return RecordingCalibration(sensors, poses, [], carries, warnings, refused)
