@@ -133,6 +133,15 @@ def quasi_static_accel(t: np.ndarray, y: np.ndarray, gravity: float, *, still: i
     return QuasiStaticFit(cal, best["rows"])
 
 
+def told_relative(cal: TriadCalibration, gravity: float) -> float:
+    """The largest of an accelerometer's offset deviations relative to g and its scales' relative deviations (0
+    where it states none)."""
+    if cal.B_std is None or cal.H_std is None:
+        return 0.0
+    scale = np.abs(np.diag(cal.H))
+    return float(np.max(np.r_[np.asarray(cal.B_std) * scale / gravity, np.diag(cal.H_std) / scale]))
+
+
 def quasi_static_warning(fit: dict, still: int) -> str:
     return (f"{still} still poses ({MIN_INTERVALS} are needed): fitted instead to the norm of its "
             f"{len(fit['rows'])} quasi-static samples (the {100 * fit['share']:.0f} % of the record whose specific "

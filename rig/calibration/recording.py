@@ -31,7 +31,7 @@ from rig.calibration.recording_checks import (
 )
 from rig.calibration.recording_gyro import fit_gyro, summed_rate, whole_carries
 from rig.calibration.recording_mag import calibrate_recording_mag
-from rig.calibration.quasi_static import quasi_static_accel, still_intervals
+from rig.calibration.quasi_static import TOLD_REL, quasi_static_accel, still_intervals, told_relative
 from rig.calibration.recording_vector import vector_fit
 from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
@@ -43,6 +43,11 @@ from rig.errors import CalibrationError
 from rig.session_data import SessionData
 
 MIN_AXIS_SD = float(np.radians(0.1))      # a turn's axis from the gyro, at best (rad)
+
+
+class AccelNotTold(CalibrationError):
+    """Neither the still poses nor the quasi-static samples of a record without segments tell its accelerometer:
+    it, and every sensor calibrated in its frame, is named not calibrated."""
 
 
 @dataclass
@@ -147,44 +152,62 @@ def _mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns
                                    quasi_static_rows=quasi_static_rows)
 
 
-def _without_accelerometer(session: SessionData) -> RecordingCalibration:
-    """No accelerometer: a magnetometer by itself, every sample (still or not), in its own frame; a gyro beside it
-    is `refused` (its motions are tied to gravity)."""
-    if "mag" not in session.raw:
+def _without_accelerometer(session: SessionData, accel_refused: str | None = None) -> RecordingCalibration:
+    """No accelerometer, or one the recording cannot calibrate (`accel_refused` says why): a magnetometer by itself,
+    every sample (still or not), in its own frame; a gyro beside it is `refused` (its motions are tied to
+    gravity), as is a magnetometer that cannot be calibrated where the accelerometer was refused."""
+    if "mag" not in session.raw and accel_refused is None:
         raise CalibrationError(f"{session.source}: a recording is calibrated from its accelerometer or its "
                                f"magnetometer, and this one has neither ({', '.join(session.raw)})")
+    refused = {"accel": accel_refused} if accel_refused else {}
+    if "gyro" in session.raw:
+        refused["gyro"] = (f"{session.source}: a gyroscope is calibrated by the gravity its motions carry between "
+                           "still poses, and the recording has "
+                           + ("no accelerometer" if accel_refused is None else "no calibrated accelerometer"))
+    if "mag" not in session.raw:
+        return RecordingCalibration({}, [], [], [], [], refused)
     found, pinned = pinned_rows(np.nan_to_num(session.raw["mag"]))
     y = session.raw["mag"][~pinned]
     warnings = [f"mag: {rail_names('mag', found, imported_columns(session, 'mag'))}: those samples left out "
                 "(saturated: the field beyond the range)"] if found else []
-    mag, mag_warnings = calibrate_mag_alone(y, session.field_uT, source=str(session.source),
-                                            raw_unit=session.meta.get("units", {}).get("mag", "counts"))
-    refused = {"gyro": f"{session.source}: a gyroscope is calibrated by the gravity its motions carry between "
-                       "still poses, and the recording has no accelerometer"} if "gyro" in session.raw else {}
+    try:
+        mag, mag_warnings = calibrate_mag_alone(y, session.field_uT, source=str(session.source),
+                                                raw_unit=session.meta.get("units", {}).get("mag", "counts"))
+    except CalibrationError as exc:
+        if accel_refused is None:
+            raise
+        refused["mag"] = str(exc)
+        return RecordingCalibration({}, [], [], [], warnings, refused)
     return RecordingCalibration({"mag": mag}, [], [], [], warnings + mag_warnings, refused)
 
 
 def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, rest: float | None,
                             columns: list[str] | None, gyro: np.ndarray | None
                             ) -> tuple[TriadCalibration, np.ndarray | None]:
-    """imu_tk's fit where the record holds MIN_INTERVALS still poses, else the norm of its quasi-static samples
-    (`quasi_static`), with the rows it was fitted on (None for imu_tk's). The static intervals imu_tk found stay
-    in the quasi-static fit's extra: a gyro beside it is still fitted across them."""
+    """imu_tk's fit where the record holds MIN_INTERVALS still poses that tell it to TOLD_REL, else the norm of its
+    quasi-static samples (`quasi_static`), with the rows it was fitted on (None for imu_tk's). The static intervals
+    imu_tk found stay in the quasi-static fit's extra: a gyro beside it is still fitted across them. Where neither
+    tells it to TOLD_REL, CalibrationError starting "accel: " (the caller names every sensor not calibrated)."""
     try:
         poses = turntable_free_accel(t, accel, gravity=gravity, init_static_s=rest, columns=columns,
                                      pose_means=True, gyro_raw=gyro)
     except CalibrationError as exc:
         poses, refused = None, exc
     still = still_intervals(t, accel, poses.extra["intervals"]) if poses is not None else []
-    if len(still) >= MIN_INTERVALS:
+    if len(still) >= MIN_INTERVALS and told_relative(poses, gravity) <= TOLD_REL:
         return poses, None
     try:
         fit = quasi_static_accel(t, accel, gravity, still=len(still))
     except CalibrationError as exc:
         if poses is None:
             raise CalibrationError(f"{refused}; nor can it be fitted without still poses: {exc}") from None
-        poses.warnings.append(f"{len(still)} of its {len(poses.extra['intervals'])} static intervals are still "
-                              f"(the others turn slowly), and its quasi-static samples do not tell it either: {exc}")
+        told = told_relative(poses, gravity)
+        why = (f"{len(still)} of its {len(poses.extra['intervals'])} static intervals are still, and its quasi-static samples do not tell it either: {exc}")
+        if told > TOLD_REL:
+            raise AccelNotTold(f"accel: its static intervals tell it to only {100 * told:.2g} % (at most "
+                                   f"{100 * TOLD_REL:g} %; {why})") from None
+        if len(still) < MIN_INTERVALS:
+            poses.warnings.append(why)
         return poses, None
     if poses is not None:
         fit.calibration.extra.update({k: poses.extra[k] for k in ("intervals", "initial_rest_s", "initial_rest")
@@ -216,6 +239,8 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
                                                       columns=columns["gyro"])
             except CalibrationError as exc:
                 refused["gyro"] = f"{session.source}: {exc}"
+    except AccelNotTold as exc:
+        return _without_accelerometer(session, f"{session.source}: {exc}")
     except (CalibrationError, ValueError) as exc:
         raise CalibrationError(f"{session.source}: {exc}") from None
     intervals = (sensors.get("gyro") or sensors["accel"]).extra.get("intervals", [])
