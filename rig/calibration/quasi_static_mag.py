@@ -15,7 +15,7 @@ import numpy as np
 from scipy.special import stdtrit
 
 from rig.calibration.field_norm import data_field_norm, to_data_field
-from rig.calibration.mag_alone import field_from_data_warning
+from rig.calibration.mag_alone import MAX_MAGNITUDE_RMS, MAX_RELATIVE_SD, field_from_data_warning
 from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
 from rig.calibration.mag_model import jacobian, residuals
 from rig.calibration.quasi_static import BLOCKS, OUTSIDE_ONE_SIGMA
@@ -48,11 +48,17 @@ def quasi_static_mag(session: SessionData, accel: TriadCalibration, norm: float 
     B, S = sphere_start(y, norm)
     Q, _ = best_rotation(S, B, [group], norm)
     B, H, _, info = joint_fit(y, [group], norm, B, Q @ S)
+    if info["norm_rms"] > MAX_MAGNITUDE_RMS * norm:
+        raise CalibrationError(f"{session.source}: mag: the samples do not lie on one ellipsoid: their magnitudes "
+                               f"scatter {100 * info['norm_rms'] / norm:.3g} % of the field about it (at most "
+                               f"{100 * MAX_MAGNITUDE_RMS:g} %): a field disturbed by iron nearby, or a magnet")
     p = np.r_[B, H.ravel() / norm, -np.sin(np.radians(info["dip_deg"]))]
     cov, factor, blocks = _block_covariance(p, y, index, group, rows, info["norm_rms"] / norm, info["dot_rms"])
     cov = cov * np.r_[np.ones(3), np.full(9, norm), 1.0][:, None] * np.r_[np.ones(3), np.full(9, norm), 1.0][None]
     dip_sd = float(np.degrees(np.sqrt(max(cov[12, 12], 0.0)) / max(np.cos(np.radians(info["dip_deg"])), 1e-12)))
     cov = cov[:12, :12]
+    _refuse_untold(session, B, H, cov, norm, info)
+    dip_sd = float(np.hypot(dip_sd, _dip_sd_from_accel(accel, session.raw["accel"][rows], group[0], B, H)))
     field = {"field_uT_source": "given"}
     if from_data:
         scaled = to_data_field(H, norm, cov[3:, 3:], cov[:3, 3:])
@@ -77,6 +83,45 @@ def quasi_static_mag(session: SessionData, accel: TriadCalibration, norm: float 
         extra={"poses": [], "samples": int(len(y)), "quasi_static_samples": int(len(rows)),
                "dip_deg": info["dip_deg"], "dip_std_deg": dip_sd, "dip_rms_deg": float(np.degrees(info["dot_rms"])),
                "residual_correlation_factor": factor, **field}), warnings
+
+
+def _refuse_untold(session: SessionData, B: np.ndarray, H: np.ndarray, cov: np.ndarray, norm: float,
+                   info: dict) -> None:
+    """CalibrationError where an entry of B (as field) or H is known worse than mag_alone's MAX_RELATIVE_SD of the
+    field: a field whose magnitude changes with time (iron or a magnet carried along) bends the fit's ellipsoid
+    until its deviations, once the residuals' dependence is counted, say it is no one ellipsoid."""
+    scale = float(np.abs(np.diag(H)).mean())
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    relative = np.r_[sd[:3] * scale / norm, sd[3:] / scale]
+    worst = int(np.argmax(relative))
+    if relative[worst] > MAX_RELATIVE_SD:
+        name = f"B[{worst}]" if worst < 3 else f"H[{(worst - 3) // 3}, {(worst - 3) % 3}]"
+        raise CalibrationError(f"{session.source}: mag: its samples tell no one ellipsoid: {name} is known to only "
+                               f"{100 * relative[worst]:.2g} % of the field (at most {100 * MAX_RELATIVE_SD:g} %; "
+                               f"the magnitudes scatter {100 * info['norm_rms'] / norm:.2g} % about it, the angles to "
+                               f"gravity {np.degrees(info['dot_rms']):.2g} deg): a field disturbed by iron nearby or "
+                               "a magnet carried along, or too few directions")
+
+
+def _dip_sd_from_accel(accel: TriadCalibration, a: np.ndarray, m: np.ndarray, B: np.ndarray, H: np.ndarray
+                       ) -> float:
+    """What the accelerometer's own B and H deviations make of the dip (deg): they are shared by every sample, so
+    the samples' scatter does not show them; the mean angle's derivatives by central differences, through B_cov
+    and H_cov (as `recording_mag` does for still poses)."""
+    if accel.B_cov is None or accel.H_cov is None:
+        return 0.0
+    f = (m - B) @ H.T
+    f /= np.linalg.norm(f, axis=1, keepdims=True)
+
+    def mean_angle(x: np.ndarray) -> float:
+        g = (a - x[:3]) @ x[3:].reshape(3, 3).T
+        return float(np.mean(np.arcsin(np.clip(np.sum(g * f, axis=1) / np.linalg.norm(g, axis=1), -1.0, 1.0))))
+
+    x0 = np.concatenate([accel.B, np.asarray(accel.H, float).ravel()])
+    steps = np.r_[np.full(3, 1e-6 * float(np.abs(a - accel.B).max())), np.full(9, 1e-6 * float(np.abs(accel.H).max()))]
+    grad = np.array([(mean_angle(x0 + h * e) - mean_angle(x0 - h * e)) / (2 * h) for h, e in zip(steps, np.eye(12))])
+    var = grad[:3] @ accel.B_cov @ grad[:3] + grad[3:] @ accel.H_cov @ grad[3:]
+    return float(np.degrees(np.sqrt(max(var, 0.0))))
 
 
 def _block_covariance(p: np.ndarray, y: np.ndarray, y_rows: np.ndarray, group: tuple[np.ndarray, np.ndarray],

@@ -37,7 +37,13 @@ from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.static_segments import check_static_segments
-from rig.calibration.turntable_free import MIN_INTERVALS, checked, describe_rest, turntable_free_accel
+from rig.calibration.turntable_free import (
+    MIN_INTERVALS,
+    TooFewIntervals,
+    checked,
+    describe_rest,
+    turntable_free_accel,
+)
 from rig.calibration.turntable_free_gyro import turntable_free_gyro
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
@@ -191,7 +197,7 @@ def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, re
     try:
         poses = turntable_free_accel(t, accel, gravity=gravity, init_static_s=rest, columns=columns,
                                      pose_means=True, gyro_raw=gyro)
-    except CalibrationError as exc:
+    except TooFewIntervals as exc:
         poses, refused = None, exc
     still = still_intervals(t, accel, poses.extra["intervals"]) if poses is not None else []
     if len(still) >= MIN_INTERVALS and told_relative(poses, gravity) <= TOLD_REL:
@@ -233,7 +239,11 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     try:                                                # name the recording, as every other refusal here does
         sensors["accel"], quasi_rows = _accel_without_segments(t, accel, session.gravity, rest, columns["accel"],
                                                                gyro)
-        if gyro is not None:
+        if gyro is not None and "intervals" not in sensors["accel"].extra:
+            refused["gyro"] = (f"{session.source}: gyro: it is calibrated by the gravity its motions carry between "
+                               "still poses, and the record holds none (its accelerometer was fitted to its "
+                               "quasi-static samples)")
+        elif gyro is not None:
             try:
                 sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
                                                       columns=columns["gyro"])

@@ -45,6 +45,11 @@ NOT_AT_REST = 100.0         # a given initial rest whose accelerometer variance 
 UPPER = np.triu_indices(3)
 
 
+class TooFewIntervals(CalibrationError):
+    """Fewer than MIN_INTERVALS static intervals for every threshold: the record holds too few still poses (a
+    record turned slowly without being set down is fitted otherwise, `quasi_static`)."""
+
+
 def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, *, gravity: float = 9.80665,
                              init_static_s: float | None = None, k_values: range | tuple = range(2, 11),
                              window_s: float = 1.0, columns: dict[str, list[str]] | None = None
@@ -133,7 +138,7 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, rest: Ini
             raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals left for every k in "
                                    f"{list(k_values)} once the {saturated} with a saturated accelerometer are left "
                                    f"out ({rail_names('accel', found, columns)}); record the poses within its range")
-        raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals for every k in "
+        raise TooFewIntervals(f"turntable-free: fewer than {MIN_INTERVALS} static intervals for every k in "
                                f"{list(k_values)}; record more poses held for >= {SAMPLES_PER_INTERVAL} samples")
 
     def rms(ranges) -> float:
