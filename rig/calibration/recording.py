@@ -22,6 +22,7 @@ import numpy as np
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.g_sensitivity import with_g_sensitivity
 from rig.calibration.mag_alone import calibrate_mag_alone
+from rig.calibration.quasi_static import TOLD_REL, quasi_static_accel, still_intervals, told_relative
 from rig.calibration.recording_checks import (
     check_no_stuck_axis,
     imported_columns,
@@ -31,7 +32,6 @@ from rig.calibration.recording_checks import (
 )
 from rig.calibration.recording_gyro import fit_gyro, summed_rate, whole_carries
 from rig.calibration.recording_mag import calibrate_recording_mag
-from rig.calibration.quasi_static import TOLD_REL, quasi_static_accel, still_intervals, told_relative
 from rig.calibration.recording_vector import vector_fit
 from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
@@ -193,7 +193,7 @@ def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, re
     """imu_tk's fit where the record holds MIN_INTERVALS still poses that tell it to TOLD_REL, else the norm of its
     quasi-static samples (`quasi_static`), with the rows it was fitted on (None for imu_tk's). The static intervals
     imu_tk found stay in the quasi-static fit's extra: a gyro beside it is still fitted across them. Where neither
-    tells it to TOLD_REL, CalibrationError starting "accel: " (the caller names every sensor not calibrated)."""
+    tells it to TOLD_REL, AccelNotTold (the caller names every sensor not calibrated)."""
     try:
         poses = turntable_free_accel(t, accel, gravity=gravity, init_static_s=rest, columns=columns,
                                      pose_means=True, gyro_raw=gyro)
@@ -208,10 +208,11 @@ def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, re
         if poses is None:
             raise CalibrationError(f"{refused}; nor can it be fitted without still poses: {exc}") from None
         told = told_relative(poses, gravity)
-        why = (f"{len(still)} of its {len(poses.extra['intervals'])} static intervals are still, and its quasi-static samples do not tell it either: {exc}")
+        why = (f"{len(still)} of its {len(poses.extra['intervals'])} static intervals are still, and its "
+               f"quasi-static samples do not tell it either: {exc}")
         if told > TOLD_REL:
             raise AccelNotTold(f"accel: its static intervals tell it to only {100 * told:.2g} % (at most "
-                                   f"{100 * TOLD_REL:g} %; {why})") from None
+                               f"{100 * TOLD_REL:g} %; {why})") from None
         if len(still) < MIN_INTERVALS:
             poses.warnings.append(why)
         return poses, None
