@@ -2,22 +2,34 @@
 
 Such a record holds too few still poses for `recording_mag`'s angles to gravity, but every quasi-static sample
 holds the angle between field and gravity as well as a pose does, to within what the hand's acceleration turns
-gravity's direction by: the rotation from the magnetometer onto the accelerometer's frame and the dip are fitted
-by `mag_fit.joint_fit` with those samples as the one group of directions. The hand's acceleration lasts for a
-gesture, so neighbouring samples' cosines are one piece of evidence: the covariance is the cluster-robust sandwich
-over BLOCKS blocks of consecutive samples (Liang and Zeger, Biometrika 73, 1986; the accelerometer's own fit,
-`quasi_static.block_covariance`, does the same), widened by Student's t on G - 1 degrees of freedom.
+gravity's direction by. Two steps, each on the evidence that is its own:
+
+1. B and the symmetric S onto the unit sphere from every sample's magnitude (`mag_alone.fit_sphere`, its
+   covariance widened for the residuals' dependence): the magnitude does not see the hand's acceleration.
+2. The rotation Q onto the accelerometer's frame and the cosine c of the field's angle to gravity from the
+   quasi-static samples, `(Q S (m - B) / |.|) . g = c` (the dot-product invariant of Kok and Schon, "Magnetometer
+   calibration using inertial sensors", IEEE Sensors J. 16(14), 2016), started at `mag_fit.best_rotation`. The
+   hand's acceleration biases gravity's direction for as long as a gesture, so neighbouring samples' cosines are
+   one piece of evidence: the covariance of (Q, c) is the cluster-robust sandwich over BLOCKS blocks of
+   consecutive samples (Liang and Zeger, Biometrika 73, 1986; the accelerometer's fit does the same), widened by
+   Student's t on G - 1 degrees of freedom. Fitted together (`mag_fit.joint_fit`), the cosines' shared bias
+   pulled B up to 4 of its stated deviations off on synthetic slow sweeps.
+
+H = M Q S; its covariance that of S turned by Q, plus `[dtheta]x H` of the rotation's, plus the accelerometer
+frame's own (`uncertainty.inherited_frame_cov`). Refused where an entry is told worse than mag_alone's
+MAX_RELATIVE_SD of the field (a field whose magnitude changes with time).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 from scipy.special import stdtrit
 
 from rig.calibration.field_norm import data_field_norm, to_data_field
-from rig.calibration.mag_alone import MAX_MAGNITUDE_RMS, MAX_RELATIVE_SD, field_from_data_warning
-from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
-from rig.calibration.mag_model import jacobian, residuals
+from rig.calibration.mag_alone import DUPLICATION, MAX_RELATIVE_SD, field_from_data_warning, fit_sphere
+from rig.calibration.mag_fit import best_rotation
 from rig.calibration.quasi_static import BLOCKS, OUTSIDE_ONE_SIGMA
 from rig.calibration.result import TriadCalibration
 from rig.calibration.uncertainty import inherited_frame_cov
@@ -42,21 +54,27 @@ def quasi_static_mag(session: SessionData, accel: TriadCalibration, norm: float 
     rows = rows[::max(1, len(rows) // MAX_GROUP)]
     g = accel.apply(session.raw["accel"][rows])
     group = (y_all[rows], g / np.linalg.norm(g, axis=1, keepdims=True))
+    fit = fit_sphere(y, what=f"{session.source}: mag")
     from_data = norm is None
     if from_data:
-        norm = data_field_norm(sphere_start(y, 1.0)[1])
-    B, S = sphere_start(y, norm)
-    Q, _ = best_rotation(S, B, [group], norm)
-    B, H, _, info = joint_fit(y, [group], norm, B, Q @ S)
-    if info["norm_rms"] > MAX_MAGNITUDE_RMS * norm:
-        raise CalibrationError(f"{session.source}: mag: the samples do not lie on one ellipsoid: their magnitudes "
-                               f"scatter {100 * info['norm_rms'] / norm:.3g} % of the field about it (at most "
-                               f"{100 * MAX_MAGNITUDE_RMS:g} %): a field disturbed by iron nearby, or a magnet")
-    p = np.r_[B, H.ravel() / norm, -np.sin(np.radians(info["dip_deg"]))]
-    cov, factor, blocks = _block_covariance(p, y, index, group, rows, info["norm_rms"] / norm, info["dot_rms"])
-    cov = cov * np.r_[np.ones(3), np.full(9, norm), 1.0][:, None] * np.r_[np.ones(3), np.full(9, norm), 1.0][None]
-    dip_sd = float(np.degrees(np.sqrt(max(cov[12, 12], 0.0)) / max(np.cos(np.radians(info["dip_deg"])), 1e-12)))
-    cov = cov[:12, :12]
+        norm = data_field_norm(fit.S)
+    Q, _ = best_rotation(fit.S, fit.B, [group], 1.0)
+    x, c, xc_cov, factor, blocks, dot_rms = _rotation_fit(Q, fit.S, fit.B, group, rows)
+    Q = Rotation.from_rotvec(x).as_matrix() @ Q
+    B, H = fit.B, norm * Q @ fit.S
+    D = np.zeros((12, 9))
+    D[:3, :3] = np.eye(3)
+    D[3:, 3:] = DUPLICATION
+    to_H = np.zeros((12, 12))                       # (B, vec S) -> (B, vec H), H = M Q S
+    to_H[:3, :3] = np.eye(3)
+    to_H[3:, 3:] = norm * np.kron(Q, np.eye(3))
+    cov = to_H @ D @ fit.cov @ D.T @ to_H.T
+    turn = np.column_stack([(_skew(e) @ H).ravel() for e in np.eye(3)])
+    cov[3:, 3:] += turn @ xc_cov[:3, :3] @ turn.T   # dH = [dtheta]x H
+    sine = float(np.clip(-c, -1.0, 1.0))
+    info = {"norm_rms": fit.residual_rms * norm, "dip_deg": float(np.degrees(np.arcsin(sine))), "dot_rms": dot_rms,
+            "iterations": fit.iterations, "converged": fit.converged}
+    dip_sd = float(np.degrees(np.sqrt(max(xc_cov[3, 3], 0.0)) / max(np.sqrt(1.0 - sine * sine), 1e-12)))
     _refuse_untold(session, B, H, cov, norm, info)
     dip_sd = float(np.hypot(dip_sd, _dip_sd_from_accel(accel, session.raw["accel"][rows], group[0], B, H)))
     field = {"field_uT_source": "given"}
@@ -124,23 +142,35 @@ def _dip_sd_from_accel(accel: TriadCalibration, a: np.ndarray, m: np.ndarray, B:
     return float(np.degrees(np.sqrt(max(var, 0.0))))
 
 
-def _block_covariance(p: np.ndarray, y: np.ndarray, y_rows: np.ndarray, group: tuple[np.ndarray, np.ndarray],
-                      group_rows: np.ndarray, norm_sd: float, dot_sd: float) -> tuple[np.ndarray, float, int]:
-    """The covariance of p = (B, vec H / M, c) clustered over BLOCKS time blocks of the record (the magnitudes'
-    rows and the cosines' rows of one stretch of time are one cluster), the ratio of its diagonal to that of
-    independent residuals (averaged) and the blocks used."""
-    w = np.r_[np.full(len(y), 1.0 / max(norm_sd, 1e-12)), np.full(len(group[0]), 1.0 / max(dot_sd, 1e-12))]
-    J = jacobian(p, y, [group]) * w[:, None]
-    r = residuals(p, y, [group]) * w
-    when = np.r_[y_rows, group_rows]
-    start, span = int(when.min()), int(when.max() - when.min()) + 1
-    label = ((when - start) * BLOCKS) // span
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def _rotation_fit(Q: np.ndarray, S: np.ndarray, B: np.ndarray, group: tuple[np.ndarray, np.ndarray],
+                  rows: np.ndarray) -> tuple[np.ndarray, float, np.ndarray, float, int, float]:
+    """The small rotation x (rotation vector, applied after Q) and the cosine c for which every quasi-static
+    sample's field `x Q S (m - B)` makes the angle arccos(c) with its gravity direction; their covariance (4, 4)
+    clustered over BLOCKS time blocks (see the module), its ratio to that of independent residuals, the blocks,
+    and the cosines' RMS scatter (rad)."""
+    v = (group[0] - B) @ S.T @ Q.T
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    d = group[1]
+
+    def fun(p: np.ndarray) -> np.ndarray:
+        return np.sum((v @ Rotation.from_rotvec(p[:3]).as_matrix().T) * d, axis=1) - p[3]
+
+    res = least_squares(fun, np.r_[np.zeros(3), float(np.mean(np.sum(v * d, axis=1)))], method="lm",
+                        xtol=1e-13, ftol=1e-13, gtol=1e-13)
+    J, r = res.jac, res.fun
+    span = int(rows.max() - rows.min()) + 1
+    label = ((rows - rows.min()) * BLOCKS) // span
     present = np.unique(label)
     G = len(present)
     A_inv = np.linalg.pinv(J.T @ J)
     scores = np.array([J[label == b].T @ r[label == b] for b in present])
     student = float(stdtrit(G - 1, 1.0 - OUTSIDE_ONE_SIGMA / 2)) ** 2 if G > 1 else np.inf
     clustered = A_inv @ (scores.T @ scores) @ A_inv * G / max(G - 1, 1) * student
-    plain = A_inv * float(r @ r) / max(len(r) - len(p), 1)
+    plain = A_inv * float(r @ r) / max(len(r) - 4, 1)
     factor = float(np.mean(np.diag(clustered) / np.where(np.diag(plain) > 0, np.diag(plain), np.inf)))
-    return (clustered if factor >= 1 else plain), max(factor, 1.0), G
+    cov = clustered if factor >= 1 else plain
+    return res.x[:3], float(res.x[3]), cov, max(factor, 1.0), G, float(np.sqrt(np.mean(r ** 2)))
