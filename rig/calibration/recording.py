@@ -21,7 +21,7 @@ import numpy as np
 
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.g_sensitivity import with_g_sensitivity
-from rig.calibration.mag_alone import calibrate_mag_alone
+from rig.calibration.mag_alone import calibrate_mag_alone, directions_text
 from rig.calibration.quasi_static import TOLD_REL, quasi_static_accel, still_intervals, told_relative
 from rig.calibration.recording_checks import (
     check_no_stuck_axis,
@@ -208,11 +208,14 @@ def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, re
         if poses is None:
             raise CalibrationError(f"{refused}; nor can it be fitted without still poses: {exc}") from None
         told = told_relative(poses, gravity)
-        why = (f"{len(still)} of its {len(poses.extra['intervals'])} static intervals are still, and its "
-               f"quasi-static samples do not tell it either: {exc}")
+        intervals = poses.extra["intervals"]
+        why = (f"{len(still)} of its {len(intervals)} static intervals are still, and its quasi-static samples do "
+               f"not tell it either: {exc}")
         if told > TOLD_REL:
-            raise AccelNotTold(f"accel: its static intervals tell it to only {100 * told:.2g} % (at most "
-                               f"{100 * TOLD_REL:g} %; {why})") from None
+            means = np.array([accel[a:b + 1].mean(axis=0) for a, b in intervals])
+            where = directions_text(means / np.linalg.norm(means, axis=1, keepdims=True), "accelerometer")
+            raise AccelNotTold(f"accel: its static intervals leave it undetermined, known to only {100 * told:.2g} % "
+                               f"(at most {100 * TOLD_REL:g} %): {where}; {why}") from None
         if len(still) < MIN_INTERVALS:
             poses.warnings.append(why)
         return poses, None
