@@ -19,9 +19,12 @@ calibrate on such quasi-static samples. Here:
   over every sample (`turntable_free.fit_accel_upper`), started from the algebraic ellipsoid.
 * Uncertainty. What the hand adds to |f| lasts for as long as a gesture: the residuals are not independent, and
   `s^2 (J^T J)^-1` of independent samples states a deviation many times too small. The covariance is the
-  cluster-robust sandwich over BLOCKS blocks of consecutive samples (Liang and Zeger, Biometrika 73, 1986, with time
-  blocks as the clusters; `mag_alone._correlation_factor` reads the same for a magnetometer), `A^-1 (sum_b s_b
-  s_b^T) A^-1 G / (G - 1)`, s_b = J_b^T r_b, widened by Student's t on G - 1 degrees of freedom (`norm_fit_cov`).
+  delete-a-group jackknife over BLOCKS blocks of consecutive samples (the time blocks as clusters, as in the
+  cluster-robust variance of Liang and Zeger, Biometrika 73, 1986; `mag_alone._correlation_factor` reads the same
+  for a magnetometer), `(G - 1) / G sum_b (d_b - mean d)(d_b - mean d)^T` with d_b the one-step change of the
+  parameters without block b, widened by Student's t on G - 1 degrees of freedom. The centripetal acceleration of
+  a turn about a wrist LEVER_M from the sensor, `|omega|^2 r`, is not zero on average and shifts the offset: its
+  size at the fitted samples' turn rate is added to B's covariance.
   A fit told worse than TOLD_REL (its offset relative to g, or its scale) is refused, naming how much of the sphere
   the samples cover.
 """
@@ -52,7 +55,6 @@ TOLD_REL = 0.05           # an offset (of g) or scale known worse than this is n
 # datasheet gives both to a few per cent (the gyro's HAND_TOLD_REL, `sampling`)
 OUTSIDE_ONE_SIGMA = 0.31731050786291415
 LEVER_M = 0.15
-JACKKNIFE = True
 
 
 @dataclass
@@ -214,14 +216,10 @@ def block_covariance(samples: np.ndarray, rows: np.ndarray, B: np.ndarray, H: np
     G = len(present)
     student = float(stdtrit(G - 1, 1.0 - OUTSIDE_ONE_SIGMA / 2)) ** 2 if G > 1 else np.inf
     A = Js.T @ Js
-    if JACKKNIFE:
-        d = np.array([np.linalg.solve(A - Js[label == b].T @ Js[label == b], Js[label == b].T @ r[label == b])
-                      for b in present])
-        d -= d.mean(axis=0)
-        clustered = d.T @ d * (G - 1) / G * student
-    else:
-        scores = np.array([Js[label == b].T @ r[label == b] for b in present])
-        clustered = A_inv @ (scores.T @ scores) @ A_inv * G / max(G - 1, 1) * student
+    d = np.array([np.linalg.solve(A - Js[label == b].T @ Js[label == b], Js[label == b].T @ r[label == b])
+                  for b in present])
+    d -= d.mean(axis=0)
+    clustered = d.T @ d * (G - 1) / G * student
     plain = A_inv * float(r @ r) / max(len(r) - 9, 1)
     factor = float(np.mean(np.diag(clustered) / np.where(np.diag(plain) > 0, np.diag(plain), np.inf)))
     cov = clustered / np.outer(scale, scale)
