@@ -67,7 +67,7 @@ def test_a_magnetometer_beside_it_is_aligned_by_the_quasi_static_samples_angle_t
 
 
 def test_a_magnetometer_on_no_one_ellipsoid_is_named_and_the_accelerometer_calibrated():
-    """A magnet carried with the unit (the field's magnitude swings by a third over 20 s): the magnetometer is
+    """Iron moving near the unit (the field's magnitude swings by a third over 20 s): the magnetometer is
     named not calibrated with why, and the accelerometer beside it calibrated as without it."""
     rec = slow_sweep(0)
     truth = mag_truth(rec["rng"])
