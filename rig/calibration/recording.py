@@ -191,7 +191,9 @@ def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, re
                             columns: list[str] | None, gyro: np.ndarray | None
                             ) -> tuple[TriadCalibration, np.ndarray | None]:
     """imu_tk's fit where the record holds MIN_INTERVALS still poses that tell it to TOLD_REL, else the norm of its
-    quasi-static samples (`quasi_static`), with the rows it was fitted on (None for imu_tk's). The static intervals
+    quasi-static samples (`quasi_static`), with the rows it was fitted on (None for imu_tk's). A record posed too
+    few times (most of the static intervals it holds are still, but fewer than MIN_INTERVALS) keeps imu_tk's
+    refusal, which asks for more poses: it was meant to be posed. The static intervals
     imu_tk found stay in the quasi-static fit's extra: a gyro beside it is still fitted across them. Where neither
     tells it to TOLD_REL, AccelNotTold (the caller names every sensor not calibrated)."""
     try:
@@ -199,6 +201,8 @@ def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, re
                                      pose_means=True, gyro_raw=gyro)
     except TooFewIntervals as exc:
         poses, refused = None, exc
+        if 2 * len(still_intervals(t, accel, exc.intervals)) > len(exc.intervals):
+            raise                                   # posed, but too few times: imu_tk's refusal asks for more
     still = still_intervals(t, accel, poses.extra["intervals"]) if poses is not None else []
     if len(still) >= MIN_INTERVALS and told_relative(poses, gravity) <= TOLD_REL:
         return poses, None
