@@ -293,11 +293,16 @@ def fibonacci_sphere(n: int) -> np.ndarray:
 
 def _coverage_text(z: np.ndarray, B: np.ndarray | None, S: np.ndarray | None) -> str:
     """How much of the sphere the samples' directions cover, and the direction farthest from all of them."""
-    e = _directions(z, B, S)
+    return directions_text(_directions(z, B, S), "magnetometer")
+
+
+def directions_text(e: np.ndarray, sensor: str) -> str:
+    """How much of the sphere unit directions e (n, 3) cover, and the direction farthest from all of them, in the
+    `sensor`'s axes."""
     grid = fibonacci_sphere(2000)
     nearest = np.max(grid @ e[:: max(1, len(e) // 4000)].T, axis=1)
     far = int(np.argmin(nearest))
     gap = float(np.degrees(np.arccos(np.clip(nearest[far], -1.0, 1.0))))
     axis = "[" + ", ".join(f"{c:+.2f}" for c in grid[far]) + "]"
     return (f"their directions cover {100 * coverage(e):.0f} % of the sphere, and none comes within {gap:.0f} deg "
-            f"of {axis} in the magnetometer's axes")
+            f"of {axis} in the {sensor}'s axes")

@@ -21,7 +21,8 @@ import numpy as np
 
 from rig.calibration.carry_weight import CarryWeight
 from rig.calibration.g_sensitivity import with_g_sensitivity
-from rig.calibration.mag_alone import calibrate_mag_alone
+from rig.calibration.mag_alone import calibrate_mag_alone, directions_text
+from rig.calibration.quasi_static import TOLD_REL, quasi_static_accel, still_intervals, told_relative
 from rig.calibration.recording_checks import (
     check_no_stuck_axis,
     imported_columns,
@@ -36,12 +37,23 @@ from rig.calibration.result import TriadCalibration
 from rig.calibration.saturation import pinned_rows, rail_names
 from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose, Turn, segments_of
 from rig.calibration.static_segments import check_static_segments
-from rig.calibration.turntable_free import checked, describe_rest, turntable_free_accel
+from rig.calibration.turntable_free import (
+    MIN_INTERVALS,
+    TooFewIntervals,
+    checked,
+    describe_rest,
+    turntable_free_accel,
+)
 from rig.calibration.turntable_free_gyro import turntable_free_gyro
 from rig.errors import CalibrationError
 from rig.session_data import SessionData
 
 MIN_AXIS_SD = float(np.radians(0.1))      # a turn's axis from the gyro, at best (rad)
+
+
+class AccelNotTold(CalibrationError):
+    """Neither the still poses nor the quasi-static samples of a record without segments tell its accelerometer:
+    it, and every sensor calibrated in its frame, is named not calibrated."""
 
 
 @dataclass
@@ -135,29 +147,86 @@ def _turn_axes(session: SessionData, sensors: dict, turns: list[Turn]) -> list[t
 
 
 def _mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], turns: list,
-         left_out_rows: np.ndarray | None) -> tuple[TriadCalibration, list[str]]:
+         left_out_rows: np.ndarray | None, quasi_static_rows: np.ndarray | None = None
+         ) -> tuple[TriadCalibration, list[str]]:
     """In the accelerometer's frame, to the local field magnitude, or the data's own where the recording has none
-    (`field_norm`)."""
+    (`field_norm`); its angle to gravity from the accelerometer's quasi-static samples where it was fitted on
+    them."""
     norm = float(session.field_uT) if session.field_uT else None
     return calibrate_recording_mag(session, accel, poses, norm, turns, left_out_rows,
-                                   raw_unit=session.meta.get("units", {}).get("mag", "counts"))
+                                   raw_unit=session.meta.get("units", {}).get("mag", "counts"),
+                                   quasi_static_rows=quasi_static_rows)
 
 
-def _without_accelerometer(session: SessionData) -> RecordingCalibration:
-    """No accelerometer: a magnetometer by itself, every sample (still or not), in its own frame; a gyro beside it
-    is `refused` (its motions are tied to gravity)."""
-    if "mag" not in session.raw:
+def _without_accelerometer(session: SessionData, accel_refused: str | None = None) -> RecordingCalibration:
+    """No accelerometer, or one the recording cannot calibrate (`accel_refused` says why): a magnetometer by itself,
+    every sample (still or not), in its own frame; a gyro beside it is `refused` (its motions are tied to
+    gravity), as is a magnetometer that cannot be calibrated where the accelerometer was refused."""
+    if "mag" not in session.raw and accel_refused is None:
         raise CalibrationError(f"{session.source}: a recording is calibrated from its accelerometer or its "
                                f"magnetometer, and this one has neither ({', '.join(session.raw)})")
+    refused = {"accel": accel_refused} if accel_refused else {}
+    if "gyro" in session.raw:
+        refused["gyro"] = (f"{session.source}: a gyroscope is calibrated by the gravity its motions carry between "
+                           "still poses, and the recording has "
+                           + ("no accelerometer" if accel_refused is None else "no calibrated accelerometer"))
+    if "mag" not in session.raw:
+        return RecordingCalibration({}, [], [], [], [], refused)
     found, pinned = pinned_rows(np.nan_to_num(session.raw["mag"]))
     y = session.raw["mag"][~pinned]
     warnings = [f"mag: {rail_names('mag', found, imported_columns(session, 'mag'))}: those samples left out "
                 "(saturated: the field beyond the range)"] if found else []
-    mag, mag_warnings = calibrate_mag_alone(y, session.field_uT, source=str(session.source),
-                                            raw_unit=session.meta.get("units", {}).get("mag", "counts"))
-    refused = {"gyro": f"{session.source}: a gyroscope is calibrated by the gravity its motions carry between "
-                       "still poses, and the recording has no accelerometer"} if "gyro" in session.raw else {}
+    try:
+        mag, mag_warnings = calibrate_mag_alone(y, session.field_uT, source=str(session.source),
+                                                raw_unit=session.meta.get("units", {}).get("mag", "counts"))
+    except CalibrationError as exc:
+        if accel_refused is None:
+            raise
+        refused["mag"] = str(exc)
+        return RecordingCalibration({}, [], [], [], warnings, refused)
     return RecordingCalibration({"mag": mag}, [], [], [], warnings + mag_warnings, refused)
+
+
+def _accel_without_segments(t: np.ndarray, accel: np.ndarray, gravity: float, rest: float | None,
+                            columns: list[str] | None, gyro: np.ndarray | None
+                            ) -> tuple[TriadCalibration, np.ndarray | None]:
+    """imu_tk's fit where the record holds MIN_INTERVALS still poses that tell it to TOLD_REL, else the norm of its
+    quasi-static samples (`quasi_static`), with the rows it was fitted on (None for imu_tk's). A record posed too
+    few times (most of the static intervals it holds are still, but fewer than MIN_INTERVALS) keeps imu_tk's
+    refusal, which asks for more poses: it was meant to be posed. The static intervals
+    imu_tk found stay in the quasi-static fit's extra: a gyro beside it is still fitted across them. Where neither
+    tells it to TOLD_REL, AccelNotTold (the caller names every sensor not calibrated)."""
+    try:
+        poses = turntable_free_accel(t, accel, gravity=gravity, init_static_s=rest, columns=columns,
+                                     pose_means=True, gyro_raw=gyro)
+    except TooFewIntervals as exc:
+        poses, refused = None, exc
+        if 2 * len(still_intervals(t, accel, exc.intervals)) > len(exc.intervals):
+            raise                                   # posed, but too few times: imu_tk's refusal asks for more
+    still = still_intervals(t, accel, poses.extra["intervals"]) if poses is not None else []
+    if len(still) >= MIN_INTERVALS and told_relative(poses, gravity) <= TOLD_REL:
+        return poses, None
+    try:
+        fit = quasi_static_accel(t, accel, gravity, still=len(still))
+    except CalibrationError as exc:
+        if poses is None:
+            raise CalibrationError(f"{refused}; nor can it be fitted without still poses: {exc}") from None
+        told = told_relative(poses, gravity)
+        intervals = poses.extra["intervals"]
+        why = (f"{len(still)} of its {len(intervals)} static intervals are still, and its quasi-static samples do "
+               f"not tell it either: {exc}")
+        if told > TOLD_REL:
+            means = np.array([accel[a:b + 1].mean(axis=0) for a, b in intervals])
+            where = directions_text(means / np.linalg.norm(means, axis=1, keepdims=True), "accelerometer")
+            raise AccelNotTold(f"accel: its static intervals leave it undetermined, known to only {100 * told:.2g} % "
+                               f"(at most {100 * TOLD_REL:g} %): {where}; {why}") from None
+        if len(still) < MIN_INTERVALS:
+            poses.warnings.append(why)
+        return poses, None
+    if poses is not None:
+        fit.calibration.extra.update({k: poses.extra[k] for k in ("intervals", "initial_rest_s", "initial_rest")
+                                      if k in poses.extra})
+    return fit.calibration, fit.rows
 
 
 def _turntable_free(session: SessionData) -> RecordingCalibration:
@@ -176,23 +245,34 @@ def _turntable_free(session: SessionData) -> RecordingCalibration:
     columns = {s: imported_columns(session, s) for s in ("accel", "gyro")}
     sensors, refused = {}, {}
     try:                                                # name the recording, as every other refusal here does
-        sensors["accel"] = turntable_free_accel(t, accel, gravity=session.gravity, init_static_s=rest,
-                                                columns=columns["accel"], pose_means=True, gyro_raw=gyro)
-        if gyro is not None:
+        sensors["accel"], quasi_rows = _accel_without_segments(t, accel, session.gravity, rest, columns["accel"],
+                                                               gyro)
+        if gyro is not None and "intervals" not in sensors["accel"].extra:
+            refused["gyro"] = (f"{session.source}: gyro: it is calibrated by the gravity its motions carry between "
+                               "still poses, and the record holds none (its accelerometer was fitted to its "
+                               "quasi-static samples)")
+        elif gyro is not None:
             try:
                 sensors["gyro"] = turntable_free_gyro(t, accel, checked(t, gyro, "gyro"), sensors["accel"],
                                                       columns=columns["gyro"])
             except CalibrationError as exc:
                 refused["gyro"] = f"{session.source}: {exc}"
+    except AccelNotTold as exc:
+        return _without_accelerometer(session, f"{session.source}: {exc}")
     except (CalibrationError, ValueError) as exc:
         raise CalibrationError(f"{session.source}: {exc}") from None
-    intervals = (sensors.get("gyro") or sensors["accel"]).extra["intervals"]
+    intervals = (sensors.get("gyro") or sensors["accel"]).extra.get("intervals", [])
     index = np.flatnonzero(rows)
     poses = [Pose(f"static {k}", index[a:b + 1], None, DEFAULT_TILT_SD_DEG) for k, (a, b) in enumerate(intervals)]
-    warnings = ["no segments: static intervals detected in the data (imu_tk's turntable-free method; "
-                f"{describe_rest(sensors['accel'].extra)})"]
+    warnings = ["no segments: " + ("static intervals detected in the data (imu_tk's turntable-free method; "
+                                   f"{describe_rest(sensors['accel'].extra)})" if quasi_rows is None else
+                                   "the accelerometer fitted to the norm of its quasi-static samples")]
     if "mag" in session.raw:
-        sensors["mag"], mag_warnings = _mag(session, sensors["accel"], poses, [], None)
-        warnings += mag_warnings
+        try:
+            sensors["mag"], mag_warnings = _mag(session, sensors["accel"], poses, [], None,
+                                                None if quasi_rows is None else index[quasi_rows])
+            warnings += mag_warnings
+        except CalibrationError as exc:                 # the other sensors are calibrated all the same
+            refused["mag"] = str(exc) if str(session.source) in str(exc) else f"{session.source}: {exc}"
     carries = [(i, i + 1) for i in sensors["gyro"].extra["whole_motions"]] if "gyro" in sensors else []
     return RecordingCalibration(sensors, poses, [], carries, warnings, refused)

@@ -19,6 +19,7 @@ import numpy as np
 from rig.calibration.field_norm import data_field_norm, to_data_field
 from rig.calibration.mag_alone import field_from_data_warning
 from rig.calibration.mag_fit import best_rotation, joint_fit, sphere_start
+from rig.calibration.quasi_static_mag import quasi_static_mag
 from rig.calibration.recording_checks import imported_columns
 from rig.calibration.recording_vector import gravity_directions
 from rig.calibration.result import TriadCalibration
@@ -40,7 +41,8 @@ RAIL_WINDOW = 9
 def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses: list[Pose], norm: float | None,
                             turns: list[tuple[np.ndarray, np.ndarray, float]] = (),
                             left_out_rows: np.ndarray | None = None,
-                            raw_unit: str = "counts") -> tuple[TriadCalibration, list[str]]:
+                            raw_unit: str = "counts", quasi_static_rows: np.ndarray | None = None
+                            ) -> tuple[TriadCalibration, list[str]]:
     """The magnetometer's calibration in the accelerometer's frame, and warnings (poses left out). `turns`: (rows,
     axis in the accelerometer's frame, its standard deviation in rad) of turns about a fixed axis, along which the field stays the same: a
     six-face session's faces, put down with the box against one edge, leave the rotation about an axis open that
@@ -48,7 +50,9 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
     local field magnitude, and the one its samples show is taken (`field_norm`; `raw_unit` the samples' unit).
     The dip (the field's angle below the horizon, the same in every still pose: the dot-product invariant that
     Kok and Schon, "Magnetometer calibration using inertial sensors", IEEE Sensors J. 16(14), 2016, use in their
-    joint model of the magnetometer and the inertial sensors) comes with its standard deviation."""
+    joint model of the magnetometer and the inertial sensors) comes with its standard deviation.
+    `quasi_static_rows`: where the accelerometer was fitted to its quasi-static samples (`quasi_static`), those
+    rows' angles to gravity fix the rotation instead of the poses' means (`quasi_static_group`)."""
     y_all = session.raw["mag"]
     usable = ~np.isnan(y_all).any(axis=1)
     warnings = []
@@ -62,6 +66,9 @@ def calibrate_recording_mag(session: SessionData, accel: TriadCalibration, poses
     if left_out_rows is not None:
         usable[left_out_rows] = False
     poses = [p for p in poses if usable[p.rows].sum() >= 2]
+    if quasi_static_rows is not None:
+        return quasi_static_mag(session, accel, norm, quasi_static_rows[usable[quasi_static_rows]], usable, raw_unit,
+                                warnings)
     if len(poses) < MIN_POSES:
         raise CalibrationError(f"{session.source}: mag: {len(poses)} still poses with magnetometer samples; its "
                                f"alignment with the accelerometer needs at least {MIN_POSES}")

@@ -45,6 +45,16 @@ NOT_AT_REST = 100.0         # a given initial rest whose accelerometer variance 
 UPPER = np.triu_indices(3)
 
 
+class TooFewIntervals(CalibrationError):
+    """Fewer than MIN_INTERVALS static intervals for every threshold: the record holds too few still poses (a
+    record turned slowly without being set down is fitted otherwise, `quasi_static`). `intervals`: those of the
+    threshold that found the most."""
+
+    def __init__(self, message: str, intervals: list[tuple[int, int]]) -> None:
+        super().__init__(message)
+        self.intervals = intervals
+
+
 def calibrate_turntable_free(t: np.ndarray, accel_raw: np.ndarray, gyro_raw: np.ndarray, *, gravity: float = 9.80665,
                              init_static_s: float | None = None, k_values: range | tuple = range(2, 11),
                              window_s: float = 1.0, columns: dict[str, list[str]] | None = None
@@ -102,7 +112,7 @@ def turntable_free_accel(t: np.ndarray, accel_raw: np.ndarray, *, gravity: float
 def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, rest: InitialRest, k_values,
                  window_s: float, columns: list[str] | None = None, pose_means: bool = False) -> TriadCalibration:
     """imu_tk's threshold sweep: detect, fit, keep the k with the least cost."""
-    best, sweep = None, []
+    best, sweep, most = None, [], []
     found, pinned = pinned_rows(accel_raw)
     saturated = 0
     for k in k_values:
@@ -110,6 +120,8 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, rest: Ini
         intervals, spoiled = unpinned(intervals, pinned)
         chunks = first_samples(intervals, SAMPLES_PER_INTERVAL)
         saturated = max(saturated, len(long_intervals(spoiled, SAMPLES_PER_INTERVAL)))
+        if len(chunks) > len(most):
+            most = long_intervals(intervals, SAMPLES_PER_INTERVAL)
         if len(chunks) < MIN_INTERVALS:
             sweep.append({"k": k, "intervals": len(chunks), "cost": None})
             continue
@@ -133,8 +145,8 @@ def _accel_sweep(t: np.ndarray, accel_raw: np.ndarray, gravity: float, rest: Ini
             raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals left for every k in "
                                    f"{list(k_values)} once the {saturated} with a saturated accelerometer are left "
                                    f"out ({rail_names('accel', found, columns)}); record the poses within its range")
-        raise CalibrationError(f"turntable-free: fewer than {MIN_INTERVALS} static intervals for every k in "
-                               f"{list(k_values)}; record more poses held for >= {SAMPLES_PER_INTERVAL} samples")
+        raise TooFewIntervals(f"turntable-free: fewer than {MIN_INTERVALS} static intervals for every k in "
+                              f"{list(k_values)}; record more poses held for >= {SAMPLES_PER_INTERVAL} samples", most)
 
     def rms(ranges) -> float:
         idx = np.concatenate([np.arange(a, b + 1) for a, b in ranges])

@@ -39,8 +39,10 @@ class CalibrationFileError(InputError):
 def write_calibration(path: str | os.PathLike, sensors: dict[str, TriadCalibration], *, gravity: float,
                       field_uT: float | None, unit_serial: str | None = None, board: str | None = None,
                       extra: dict | None = None) -> Path:
-    """Write one unit's calibration; `extra` adds top-level keys (it may not replace the schema's own)."""
-    if not sensors:
+    """Write one unit's calibration; `extra` adds top-level keys (it may not replace the schema's own). A file
+    without a calibrated sensor is written only where `extra["not_calibrated"]` says why of each: the user reads
+    it, and `read_calibration` refuses it for applying, naming those reasons."""
+    if not sensors and not (extra or {}).get("not_calibrated"):
         raise ValueError("write_calibration: no sensors to write")
     doc: dict = {
         "schema": SCHEMA,
@@ -113,6 +115,9 @@ def read_calibration(path: str | os.PathLike) -> dict:
     if doc.get("schema") != SCHEMA:
         raise CalibrationFileError(path, f"must be {SCHEMA!r}, got {doc.get('schema')!r}", "schema")
     sensors = doc.get("sensors")
+    if isinstance(sensors, dict) and not sensors and isinstance(doc.get("not_calibrated"), dict):
+        why = "; ".join(f"{k}: {v}" for k, v in doc["not_calibrated"].items())
+        raise CalibrationFileError(path, f"no sensor was calibrated (not_calibrated: {why})", "sensors")
     if not isinstance(sensors, dict) or not sensors:
         raise CalibrationFileError(path, "required: an object with at least one calibrated sensor", "sensors")
     for name, entry in sensors.items():
