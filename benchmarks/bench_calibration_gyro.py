@@ -22,10 +22,10 @@ sys.path.insert(0, str(ROOT))
 
 from procedures.paper_table2 import (NOMINAL_COUNTS_PER_RAD_S, move_angle_noise, random_gyro_truth,  # noqa: E402
                                      simulate_gyro_moves)
-from rig.calibration.gyro import calibrate_gyro, calibrate_gyro_ukf  # noqa: E402
-from rig.calibration.gyro_baselines import calibrate_gyro_trust_region  # noqa: E402
-from rig.calibration.integrate import integrate_rotation  # noqa: E402
-from rig.calibration.turntable_free import calibrate_turntable_free  # noqa: E402
+from rig.calibration.turntable.gyro import calibrate_gyro, calibrate_gyro_ukf  # noqa: E402
+from rig.calibration.turntable.gyro_baselines import calibrate_gyro_trust_region  # noqa: E402
+from rig.calibration.numerics.integrate import integrate_rotation  # noqa: E402
+from rig.calibration.recordings.turntable_free import calibrate_turntable_free  # noqa: E402
 
 XSENS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "imu_tk-xsens"
 IMU_TK = {"accel_bias": [33124.1825646, 33275.1794342, 32364.4156494],

@@ -14,9 +14,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from procedures.paper_table1 import run_table1
-from rig.calibration.joint import calibrate_joint
-from rig.calibration.twostep import calibrate_two_step
-from rig.calibration.vector_baselines import calibrate_sqp
+from rig.calibration.turntable.joint import calibrate_joint
+from rig.calibration.turntable.twostep import calibrate_two_step
+from rig.calibration.turntable.vector_baselines import calibrate_sqp
 
 import stamp  # benchmarks/stamp.py
 

@@ -8,7 +8,7 @@ error |dB|, the relative H error ||dH||_F / ||H||_F and the calibrated-vector er
 ratio of RMS errors (the usual "accuracy" of a Monte Carlo, with a 95 % bootstrap interval over trials: the
 RMS is dominated by a few trials), of mean errors and of median errors.
 
-The bound (rig.calibration.bounds) of each trial's schedule gives the smallest mean-square error an unbiased
+The bound (rig.calibration.turntable.bounds) of each trial's schedule gives the smallest mean-square error an unbiased
 estimator can have there; over random schedules the bound of the RMS is sqrt(mean over trials of the
 per-schedule trace). joint_over_crb near 1 means the joint estimator cannot be improved; two_step_over_crb
 is the largest RMS gain over two-step that any unbiased estimator could show.
@@ -17,9 +17,9 @@ Setups: the paper's Table I Monte Carlo (reconstructed truth, noise variance 0.1
 orientations, the same with 12 planned orientations (a Fibonacci sphere with a random azimuth, as `rig plan`
 makes), 20 random orientations for contrast, 12 random orientations the tumble table can reach (uniform
 reference directions, one yaw for all holds: unlike "random", the holds do not each add a known turn about the
-reference, so the reference direction is harder to tell from H); a noise sweep and an orientation sweep (random schedules, each
-point an independent seed, so the 12-orientation, 0.1 counts^2 point replicates the first case); and, for the
-first case, where the heavy tail comes from (trials binned by the spread of the reference directions).
+reference, so the reference direction is harder to tell from H); a noise sweep and an orientation sweep (random
+schedules, each point an independent seed, so the 12-orientation, 0.1 counts^2 point replicates the first case); and,
+for the first case, where the heavy tail comes from (trials binned by the spread of the reference directions).
 """
 
 from __future__ import annotations
@@ -37,9 +37,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from procedures.paper_table1 import B_A, H_A, NOISE_VARIANCE  # noqa: E402
 from rig.units import STANDARD_GRAVITY as G  # noqa: E402
 from rig.schedule import plan_orientations, schedule_rotations  # noqa: E402
-from rig.calibration.bounds import cramer_rao  # noqa: E402
-from rig.calibration.joint import calibrate_joint  # noqa: E402
-from rig.calibration.twostep import calibrate_two_step  # noqa: E402
+from rig.calibration.turntable.bounds import cramer_rao  # noqa: E402
+from rig.calibration.turntable.joint import calibrate_joint  # noqa: E402
+from rig.calibration.turntable.twostep import calibrate_two_step  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.rotations import TableGeometry  # noqa: E402
 

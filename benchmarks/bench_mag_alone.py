@@ -1,5 +1,5 @@
-"""Benchmark: a magnetometer alone (`rig.calibration.mag_alone`) on simulated hand tumbles, how honest its stated
-deviations are and how long a fit takes; and, with --accel-mag, the dip of an accelerometer beside it.
+"""Benchmark: a magnetometer alone (`rig.calibration.recordings.mag_alone`) on simulated hand tumbles, how honest its
+stated deviations are and how long a fit takes; and, with --accel-mag, the dip of an accelerometer beside it.
 
 Each seed is one minute of tumbling at 50 Hz (3000 samples; tests/recordings/tumble_synth.py) of `mag_synth`'s
 sensor (48 uT dipping 60 deg, hard iron up to 40 uT, soft iron a few %, 0.3 uT of noise). Printed: the RMS over
@@ -33,9 +33,9 @@ from mag_synth import INCLINATION_DEG, mag_truth, readings  # noqa: E402
 from test_magnetometer_recordings import hand_session  # noqa: E402
 from tumble_synth import tumble  # noqa: E402
 
-from rig.calibration.mag_alone import calibrate_mag_alone  # noqa: E402
-from rig.calibration.recording import calibrate_recording  # noqa: E402
-from rig.calibration.threads import one_blas_thread  # noqa: E402
+from rig.calibration.recordings.mag_alone import calibrate_mag_alone  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
+from rig.calibration.numerics.threads import one_blas_thread  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 
 

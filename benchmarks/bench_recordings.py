@@ -13,11 +13,11 @@ prints JSON.
   parameters in tests/data/mikoff-imu-calib/peer_params.json); imu0.log from tests/data, all five with
   --mikov-repo DIR (a checkout); g = 9.81, as its code fits.
 Ours is `calibrate_recording` on the imported session as `rig calibrate` runs it (the gyro's g-sensitivity taken
-into its calibration where the poses show it, `rig.calibration.g_sensitivity`). Held-out scores (rig.calibration.heldout): leave one
-pose / turn / motion out and refit. A peer whose closed form cannot refit without a piece (imucal needs all six
-faces and all three turns; imu_tk's parameters are published, fitted on every pose and motion) is scored
-in-sample there, which favours the peer; pieces no fit saw (imucal never uses the motions between faces or the
-rests outside its sections) are held out for both.
+into its calibration where the poses show it, `rig.calibration.recordings.g_sensitivity`). Held-out scores
+(rig.calibration.recordings.heldout): leave one pose / turn / motion out and refit. A peer whose closed form cannot
+refit without a piece (imucal needs all six faces and all three turns; imu_tk's parameters are published, fitted on
+every pose and motion) is scored in-sample there, which favours the peer; pieces no fit saw (imucal never uses the
+motions between faces or the rests outside its sections) are held out for both.
 Usage: python benchmarks/bench_recordings.py [--data DIR] [--only si,raw,xsens,mpu,mikov] [--mikov-repo DIR]
 """
 
@@ -36,16 +36,16 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT)]
 
-from rig.calibration.carry_weight import angle_directions  # noqa: E402
-from rig.calibration.gyro import MoveSet, integrated_quats  # noqa: E402
-from rig.calibration.heldout import (carry_error_deg, heldout_scores, pose_errors, score_series,  # noqa: E402
-                                     scoring_layout, series)
-from rig.calibration.recording import calibrate_recording  # noqa: E402
-from rig.calibration.recording_fits import gyro_rotation_fit  # noqa: E402
-from rig.calibration.recording_gyro import motion  # noqa: E402
-from rig.calibration.recording_vector import gravity_directions  # noqa: E402
-from rig.calibration.static_detect import find_initial_rest, initial_interval  # noqa: E402
-from rig.calibration.turntable_free import turntable_free_accel  # noqa: E402
+from rig.calibration.recordings.carry_weight import angle_directions  # noqa: E402
+from rig.calibration.turntable.gyro import MoveSet, integrated_quats  # noqa: E402
+from rig.calibration.recordings.heldout import (  # noqa: E402
+    carry_error_deg, heldout_scores, pose_errors, score_series, scoring_layout, series)
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording_fits import gyro_rotation_fit  # noqa: E402
+from rig.calibration.recordings.recording_gyro import motion  # noqa: E402
+from rig.calibration.recordings.recording_vector import gravity_directions  # noqa: E402
+from rig.calibration.numerics.static_detect import find_initial_rest, initial_interval  # noqa: E402
+from rig.calibration.recordings.turntable_free import turntable_free_accel  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.io.import_csv import import_csv  # noqa: E402
 from rig.io.import_ferraris import import_ferraris  # noqa: E402

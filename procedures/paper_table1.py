@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from rig.calibration.twostep import calibrate_two_step
-from rig.calibration.vector_baselines import calibrate_sqp
+from rig.calibration.turntable.twostep import calibrate_two_step
+from rig.calibration.turntable.vector_baselines import calibrate_sqp
 from rig.units import STANDARD_GRAVITY
 
 ITERATIONS = (2, 5, 10, 15, 20, 30, 50)

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from fixtures.motion import TableTrack
-from rig.calibration.gyro import calibrate_gyro_ukf
-from rig.calibration.gyro_baselines import calibrate_gyro_trust_region
+from rig.calibration.turntable.gyro import calibrate_gyro_ukf
+from rig.calibration.turntable.gyro_baselines import calibrate_gyro_trust_region
 from rig.rotations import TableGeometry
 from rig.session_data import MoveStream
 

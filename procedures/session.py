@@ -17,7 +17,7 @@ from procedures.move_and_hold import MotionSettings, run_session
 from procedures.hold_quality import HoldTarget
 from rig.schedule import Orientation, plan_orientations, schedule_rotations
 from rig import __version__
-from rig.calibration.observability import check_schedule, move_axes_problem
+from rig.calibration.turntable.observability import check_schedule, move_axes_problem
 from rig.config import RigConfig
 from rig.io.atomic import write_text_atomic
 

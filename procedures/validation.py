@@ -27,10 +27,10 @@ from rig.attitude.evaluate import Row, SessionRows, peer_rows, session_rows, ukf
 from rig.attitude.peers import PEERS
 from rig.attitude.plots import attitude_plot, error_plot
 from rig.attitude.ukf import AttitudeEstimate, UKFSettings
-from rig.calibration.gyro import gyro_bias
-from rig.calibration.gyro_baselines import calibrate_gyro_trust_region
-from rig.calibration.result import TriadCalibration
-from rig.calibration.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
+from rig.calibration.turntable.gyro import gyro_bias
+from rig.calibration.turntable.gyro_baselines import calibrate_gyro_trust_region
+from rig.calibration.numerics.result import TriadCalibration
+from rig.calibration.turntable.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
 from rig.errors import CalibrationError, StopSignal
 from rig.io.calibration_json import read_calibration, triads_from_calibration
 from rig.io.session_writer import write_session

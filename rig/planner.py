@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rig.calibration.observability import check_schedule, move_axes_problem
+from rig.calibration.turntable.observability import check_schedule, move_axes_problem
 from rig.config import RigConfig
 from rig.errors import CalibrationError, InputError
 from rig.planner_bounds import MOVE_DECIMATION, gyro_bound, move_rotations, vector_bound

@@ -1,15 +1,15 @@
 """The predicted accuracy of a session plan: Cramer-Rao bounds of every sensor's B and H from the plan alone.
 
-Accelerometer and magnetometer: `rig.calibration.bounds.cramer_rao` on the planned holds, each hold mean with
+Accelerometer and magnetometer: `rig.calibration.turntable.bounds.cramer_rao` on the planned holds, each hold mean with
 the white noise of its samples (sigma / sqrt(samples in the hold)). The sensor is taken in its own units
 (H = I, B = 0): the relative error of H and the error of B in units do not depend on the count scale.
 
 Gyroscope: the moves give H, the holds give B. A move from hold j to hold j+1 is `phi_k = H (S_k - B T_k)`
 (rotation vector of the known rotation R_j^T R_j+1, S_k the integrated raw rate over the move's T_k seconds;
-the first-order picture of the UKF's fit of the integrated rotation, `rig.calibration.gyro`); white rate noise
+the first-order picture of the UKF's fit of the integrated rotation, `rig.calibration.turntable.gyro`); white rate noise
 puts `sigma^2 dt T_k` on each axis of S_k (angle random walk), and the reference adds the angle noise of its
-two hold orientations and an error in proportion to its angle (MOVE_RELATIVE_SD). The holds' gyro means measure B with sigma^2 / samples. The Fisher information of
-(vec H, B) is summed over moves and holds and inverted, as in bounds.py.
+two hold orientations and an error in proportion to its angle (MOVE_RELATIVE_SD). The holds' gyro means measure B with
+sigma^2 / samples. The Fisher information of (vec H, B) is summed over moves and holds and inverted, as in bounds.py.
 
 Accelerometer and magnetometer samples of the moves (`rig.pipeline.move_rows`): every
 sample of a move is one more reading at the orientation the table has at that instant, with the sensor's
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.bounds import cramer_rao
+from rig.calibration.turntable.bounds import cramer_rao
 from rig.errors import CalibrationError
 from rig.rotations import TableGeometry, rotvec_from_matrix
 from rig.trapezoid import trapezoid

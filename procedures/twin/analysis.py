@@ -18,8 +18,8 @@ from procedures.twin.model import added_rate, centred, heldout_change, model_cau
 from procedures.twin.replay import Replay, poses_alone, reconstruct, twin_view
 from procedures.twin.replicas import Background, ReplicaJob, replica_runs
 from procedures.twin.vibration import gyro_rate
-from rig.calibration.recording import RecordingCalibration, calibrate_recording
-from rig.calibration.threads import one_blas_thread
+from rig.calibration.recordings.recording import RecordingCalibration, calibrate_recording
+from rig.calibration.numerics.threads import one_blas_thread
 from rig.noise.statistics import recording_statistics
 from rig.noise.still_log import is_still_log, still_log_calibration
 from rig.session_data import SessionData

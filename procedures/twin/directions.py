@@ -19,8 +19,8 @@ from fixtures.world.recorded import RecordedAttitude
 from procedures.twin.motion import ReplayedAttitude
 from procedures.twin.printed import printed_forms
 from procedures.twin.replay import Replay
-from rig.calibration.quantisation import noise_sigma
-from rig.calibration.recording import RecordingCalibration, calibrate_recording
+from rig.calibration.numerics.quantisation import noise_sigma
+from rig.calibration.recordings.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
 from rig.noise.statistics import quantum
 from rig.session_data import SessionData, filled

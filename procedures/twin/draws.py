@@ -9,7 +9,7 @@ import zlib
 import numpy as np
 
 from procedures.twin.noise import pose_spreads, quiet_mask, quiet_variance, sampled_rows
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.noise.still_log import is_still_log_calibration
 from rig.session_data import SessionData
 

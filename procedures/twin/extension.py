@@ -23,7 +23,7 @@ from procedures.twin.hold import held_poses
 from procedures.twin.draws import extension_level, level_dof
 from procedures.twin.noise import pooled_noise, quiet_noise, sampled_rows
 from procedures.twin.replay import Replay
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.discrepancy.stats import holm
 from rig.noise.allan import allan_deviation, fit_noise
 from rig.noise.statistics import quantum
@@ -69,8 +69,8 @@ def family(name: str) -> str:
 def propose(session: SessionData, rec: RecordingCalibration, replay: Replay, real: dict, bands: dict,
             off: set[str], replicas: int, rate: np.ndarray | None = None) -> list[Cause]:
     """The effects the real recording shows, each fitted from it, where a family of statistics it governs is out of
-    band beyond chance (`off_families`). `rate`: the gyro's rate in rad/s (`procedures.twin.vibration.gyro_rate`), which a
-    disturbance the accelerometer shows must agree with to be a rotation (`procedures.twin.hold.held_poses`)."""
+    band beyond chance (`off_families`). `rate`: the gyro's rate in rad/s (`procedures.twin.vibration.gyro_rate`), which
+    a disturbance the accelerometer shows must agree with to be a rotation (`procedures.twin.hold.held_poses`)."""
     causes, floors = [], {}
     longest = max(rec.poses, key=lambda p: len(p.rows))
     fams = off_families(real, bands, off, replicas)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from procedures.twin.directions import second_difference_noise
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.noise.statistics import STEP_DIGITS, pinned_fraction, quantum
 from rig.session_data import SessionData
 

@@ -22,8 +22,8 @@ from procedures.twin.field_statistics import field_statistics, reference_norm
 from procedures.twin.offset_flip import OffsetFlip, offset_flip
 from procedures.twin.replay import Replay
 from procedures.twin.replicas import ReplicaJob, replica_runs
-from rig.calibration.recording import calibrate_recording
-from rig.calibration.threads import one_blas_thread
+from rig.calibration.recordings.recording import calibrate_recording
+from rig.calibration.numerics.threads import one_blas_thread
 from rig.errors import CalibrationError
 from rig.session_data import SessionData, filled
 

@@ -16,7 +16,7 @@ from procedures.twin.draws import extension_level, level_dof
 from procedures.twin.noise import pose_spreads, quiet_noise, quiet_poses, quiet_spread, sampled_rows
 from procedures.twin.replay import Replay
 from procedures.twin.vibration import Split, rate_across_gravity, split_by_gyro
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.session_data import SessionData
 
 SHAKE_TAU_S = 0.05        # a hand's tremor (8-12 Hz) and a soft mount's ringing, as a correlation time
@@ -42,9 +42,9 @@ def held_poses(session: SessionData, rec: RecordingCalibration, replay: Replay, 
     spreads were out: a hand's turn named from the gyro had taken a vibration the gyro never saw for its own, with a
     rotation's low-frequency wander, and pushed the norm scatter out.
 
-    `rate` is the gyro's rate in rad/s where the recording says it (`procedures.twin.vibration.gyro_rate`); without it (a gyro
-    in counts that could not be calibrated, or none) nothing contradicts the accelerometer, and its disturbance is
-    the rotation it shows."""
+    `rate` is the gyro's rate in rad/s where the recording says it (`procedures.twin.vibration.gyro_rate`); without it
+    (a gyro in counts that could not be calibrated, or none) nothing contradicts the accelerometer, and its disturbance
+    is the rotation it shows."""
     quiet = {s: quiet_spread(session, rec, s) for s in ("gyro", "accel") if s in replay.sensors}
     excess = {s: np.array([_pose_excess(session, rec, s, p, quiet[s]) for p in rec.poses]) for s in quiet}
     split = split_by_gyro(session, rec, rate, replay.rate_hz) if "accel" in excess and rate is not None else None

@@ -12,8 +12,8 @@ import numpy as np
 
 from fixtures.world import EFFECTS
 from procedures.twin.cause import Cause
-from rig.calibration.heldout import heldout_scores
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.heldout import heldout_scores
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.discrepancy.recording import recording_tests
 from rig.session_data import SessionData, filled
 
@@ -52,8 +52,8 @@ def added_rate(causes: list[Cause]) -> Callable[[np.ndarray, np.ndarray], np.nda
 
 
 def heldout_change(session: SessionData, rec: RecordingCalibration, causes: list[Cause]) -> dict | None:
-    """The held-out scores of item 2 (`rig.calibration.heldout`) before and after the gyro causes are taken into the
-    calibration: the rate they add removed from the raw gyro stream (relative to the poses' average, which the
+    """The held-out scores of item 2 (`rig.calibration.recordings.heldout`) before and after the gyro causes are taken
+    into the calibration: the rate they add removed from the raw gyro stream (relative to the poses' average, which the
     bias holds) before every refit. The causes were fitted on the pose means, not on the motions scored."""
     rate = added_rate(causes)
     if rate is None:

@@ -1,7 +1,7 @@
 """The white noise and rounding of a twin's replicas, as the recording shows them: each sensor's noise level pooled
-over the recording's static poses and the level of the poses a hand left alone (how precisely those levels are known, and what one replica draws from them:
-`procedures.twin.draws`). Apart from the replay's motion (`procedures.twin.replay`): these say how the recording's noise looks, not
-where the fixture was."""
+over the recording's static poses and the level of the poses a hand left alone (how precisely those levels are known,
+and what one replica draws from them: `procedures.twin.draws`). Apart from the replay's motion
+(`procedures.twin.replay`): these say how the recording's noise looks, not where the fixture was."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from rig.calibration.quantisation import noise_sigma
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.numerics.quantisation import noise_sigma
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.noise.rounding import noise_sigma_at
 from rig.noise.still import sample_noise
 from rig.noise.still_log import is_still_log_calibration

@@ -19,7 +19,7 @@ from scipy.stats import f as f_distribution
 
 from fixtures.world.effects.mag_offset_flip import MagOffsetFlip
 from procedures.twin.cause import Cause
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.session_data import SessionData
 
 GRID = 200                 # instants tried, evenly over the middle of the recording

@@ -24,8 +24,8 @@ from procedures.twin.motion import ReplayedAttitude, attitudes, unit
 from procedures.twin.draws import noise_dof
 from procedures.twin.noise import sampled_rows, white_noise
 from procedures.twin.printed import Printed, printed_forms
-from rig.calibration.carry_weight import CarryWeight
-from rig.calibration.recording import RecordingCalibration, calibrate_recording
+from rig.calibration.recordings.carry_weight import CarryWeight
+from rig.calibration.recordings.recording import RecordingCalibration, calibrate_recording
 from rig.errors import CalibrationError
 from rig.noise.statistics import recording_statistics
 from rig.noise.still_log import is_still_log_calibration, still_log_calibration

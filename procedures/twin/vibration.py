@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procedures.twin.noise import quiet_poses
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.session_data import SessionData
 from rig.units import DEG
 

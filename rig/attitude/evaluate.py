@@ -16,9 +16,9 @@ from rig.attitude.noise import SensorNoise
 from rig.attitude.peers import run_peer
 from rig.attitude.timing import carried_forward, delayed, estimate_gyro_delay, estimate_vector_delay
 from rig.attitude.ukf import AttitudeEstimate, UKFSettings, estimate_attitude
-from rig.calibration.lever_arm import compensate
-from rig.calibration.reference_convention import refuse_conjugated_reference
-from rig.calibration.result import TriadCalibration
+from rig.calibration.turntable.lever_arm import compensate
+from rig.calibration.turntable.reference_convention import refuse_conjugated_reference
+from rig.calibration.numerics.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.session_data import SessionData, filled
 
@@ -101,7 +101,7 @@ class CalibratedSignals(dict):
 def calibrated_signals(session: SessionData, sensors: dict[str, TriadCalibration]) -> CalibratedSignals:
     """`u = H (y - B)` per sensor, NaN rows kept; gyro and accel are required.
 
-    When the accel calibration carries a significant lever arm (`rig.calibration.lever_arm`), the
+    When the accel calibration carries a significant lever arm (`rig.calibration.turntable.lever_arm`), the
     accelerometer is moved to the intersection of the table axes here, before any filter sees it: the
     centripetal and tangential terms of the moves are part of the calibration, not tilt, and our UKF and
     the ahrs peers all get the same compensated data.

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.attitude.noise import SensorNoise, gravity_direction_variance, heading_variance, process_variance
-from rig.calibration.integrate import interval_rotvecs, quat_exp
+from rig.calibration.numerics.integrate import interval_rotvecs, quat_exp
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,7 @@ def gyro_increments(t: np.ndarray, gyro: np.ndarray) -> np.ndarray:
     """Rotation vectors of the steps (row k: from sample k-1 to k; row 0 zero), eqs. 7-8.
 
     The paper's first-order quaternion update is replaced by the rate-linear closed form of
-    `rig.calibration.integrate` (trapezoid plus the coning term), exact for constant rates.
+    `rig.calibration.numerics.integrate` (trapezoid plus the coning term), exact for constant rates.
     """
     return np.vstack([np.zeros(3), interval_rotvecs(t, gyro)])
 

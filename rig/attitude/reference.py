@@ -19,7 +19,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from rig.attitude.measurements import field_in_navigation
 from rig.attitude.ukf import (STATE_DIM, AttitudeEstimate, SensorNoise, UKFSettings, finish, setup_filter)
 from rig.rotations import matrix_from_quat, quat_multiply
-from rig.calibration.integrate import quat_exp
+from rig.calibration.numerics.integrate import quat_exp
 
 
 def _wrap(a):

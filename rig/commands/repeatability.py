@@ -65,7 +65,7 @@ def calibration_triads(path: Path) -> dict:
     """The sensors of a calibration file as TriadCalibration objects."""
     import numpy as np
 
-    from rig.calibration.result import TriadCalibration
+    from rig.calibration.numerics.result import TriadCalibration
     from rig.io.calibration_json import read_calibration
 
     out = {}

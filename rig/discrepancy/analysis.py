@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from rig.calibration.reference_convention import refuse_conjugated_reference
+from rig.calibration.turntable.reference_convention import refuse_conjugated_reference
 from rig.discrepancy.candidates import CANDIDATES, library
 from rig.discrepancy.linear import TriadFit, fit_baseline
 from rig.discrepancy.observations import observations

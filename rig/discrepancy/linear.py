@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rig.calibration.joint import calibrate_joint
-from rig.calibration.observability import tangent_basis
+from rig.calibration.turntable.joint import calibrate_joint
+from rig.calibration.turntable.observability import tangent_basis
 from rig.discrepancy.observations import Observations
 from rig.errors import CalibrationError
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rig.calibration.quantisation import mean_standard_error
+from rig.calibration.numerics.quantisation import mean_standard_error
 from rig.rotations import matrix_from_quat, rotvec_from_matrix
 from rig.session_data import SessionData, mean_rotation
 

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.g_sensitivity import pose_means
-from rig.calibration.recording import RecordingCalibration
-from rig.calibration.regression import nested_f, resvar
+from rig.calibration.recordings.g_sensitivity import pose_means
+from rig.calibration.recordings.recording import RecordingCalibration
+from rig.calibration.numerics.regression import nested_f, resvar
 from rig.discrepancy.candidates import POSE_REGRESSORS, RECORDING_TESTS
 from rig.discrepancy.recording_base import Test, subsample
 from rig.discrepancy.stats import holm

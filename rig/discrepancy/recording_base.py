@@ -4,8 +4,8 @@ on turntable sessions, so the recording analysis names no effect itself.
 
 Two kinds: an effect seen in a sensor's pose means (`@pose_regressor`) gives a block of regressors, and the blocks
 of all such effects are fitted together, each tested by its nested F test against the model without it
-(`rig.calibration.regression`); any other test (`@recording_test`) reads the session, its calibration and the pose table and
-returns its `Test`s.
+(`rig.calibration.numerics.regression`); any other test (`@recording_test`) reads the session, its calibration and the
+pose table and returns its `Test`s.
 """
 
 from __future__ import annotations

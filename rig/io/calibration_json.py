@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import rig
-from rig.calibration.result import GSensitivity, TriadCalibration
+from rig.calibration.numerics.result import GSensitivity, TriadCalibration
 from rig.errors import InputError
 from rig.io.atomic import write_text_atomic
 from rig.io.text_file import read_utf8

@@ -1,7 +1,7 @@
 """The noise ahead of a coarse rounding, given where each pose sits on the grid: the twin's replicas are rounded at
 the recording's own pose means, and below about a step the spread a pose shows depends on that place
-(`rig.calibration.quantisation` has the mean over all places, which a calibration needs without scipy's optimiser
-at start-up)."""
+(`rig.calibration.numerics.quantisation` has the mean over all places, which a calibration needs without scipy's
+optimiser at start-up)."""
 
 from __future__ import annotations
 

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.recording import RecordingCalibration
-from rig.calibration.recording_fits import fit_faces
-from rig.calibration.recording_vector import pose_stats
-from rig.calibration.saturation import distinct as _distinct, pinned_ends
+from rig.calibration.recordings.recording import RecordingCalibration
+from rig.calibration.recordings.recording_fits import fit_faces
+from rig.calibration.recordings.recording_vector import pose_stats
+from rig.calibration.numerics.saturation import distinct as _distinct, pinned_ends
 from rig.errors import CalibrationError
 from rig.noise.allan import allan_deviation
 from rig.noise.stream_delay import recording_delays
@@ -191,7 +191,8 @@ def loo_scatter_ratios(session: SessionData, rec: RecordingCalibration) -> dict[
     deviations its fit states (median over the entries): about 1 where the stated uncertainty is honest. The
     accelerometer with faces refits without each pose; the norm-only accelerometer and the gyro (without each turn
     or motion, against the deviation of its own fit, before the share it inherits from the accelerometer's frame,
-    which no refit of the gyro varies) take one Gauss-Newton step from their fit (`rig.calibration.jackknife`)."""
+    which no refit of the gyro varies) take one Gauss-Newton step from their fit
+    (`rig.calibration.numerics.jackknife`)."""
     out = {}
     accel, gyro = rec.sensors.get("accel"), rec.sensors.get("gyro")
     ratio = _faces_loo_ratio(session, rec)

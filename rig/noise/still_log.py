@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.recording import RecordingCalibration
-from rig.calibration.recording_checks import check_no_stuck_axis
-from rig.calibration.result import TriadCalibration
-from rig.calibration.segments import DEFAULT_TILT_SD_DEG, Pose
+from rig.calibration.recordings.recording import RecordingCalibration
+from rig.calibration.recordings.recording_checks import check_no_stuck_axis
+from rig.calibration.numerics.result import TriadCalibration
+from rig.calibration.recordings.segments import DEFAULT_TILT_SD_DEG, Pose
 from rig.errors import CalibrationError
 from rig.noise.still import moving_axis
 from rig.session_data import SessionData

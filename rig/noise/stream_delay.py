@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.session_data import SessionData, filled
 
 TAU_MAX_S = 0.1          # the largest delay looked for: loggers reading chips in turn, filters' group delays
@@ -116,9 +116,10 @@ def motion_spans(rec: RecordingCalibration) -> list[tuple[int, int]]:
 def motion_fits(t: np.ndarray, rate: np.ndarray, seen: np.ndarray, motions: list[tuple[int, int]], *,
                 lever: bool = False) -> list[MotionFit]:
     """The gyro's delay (s) behind the stream `seen` (n, 3) of a vector fixed in the world (gravity's specific
-    force, the field), and with `lever` the arm fitted at it, in each motion (first row, last row) that turns it by MIN_TURN_RAD or more; `rate` (n, 3) the
-    calibrated rate in the same frame (rad/s), both without gaps. The motions' rows are widened by MARGIN_S and, for
-    the filter and the shifts, by as much again as they reach, within the recording.
+    force, the field), and with `lever` the arm fitted at it, in each motion (first row, last row) that turns it by
+    MIN_TURN_RAD or more; `rate` (n, 3) the calibrated rate in the same frame (rad/s), both without gaps. The motions'
+    rows are widened by MARGIN_S and, for the filter and the shifts, by as much again as they reach, within the
+    recording.
 
     The law is v' + w(t + tau) x v = 0. With `lever` (the accelerometer) the sensor may sit a lever arm r from the
     point the hand turns about, and reads that point's acceleration a = alpha x r + w x (w x r) beside gravity:

@@ -1,4 +1,4 @@
-"""The accelerometer's and magnetometer's move samples fed to `rig.calibration.move_samples`.
+"""The accelerometer's and magnetometer's move samples fed to `rig.calibration.turntable.move_samples`.
 
 Which rows: those of the moves between two used holds (not touching an excluded hold, not across a resumed
 run), where the sensor has a sample and the reference is finite, and where the reference agrees with the
@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.joint import hold_sigma
-from rig.calibration.lever_arm import lever_arm_matrix, rate_and_derivative
-from rig.calibration.move_samples import MoveSamples, calibrate_with_moves
-from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
-from rig.calibration.result import TriadCalibration
+from rig.calibration.turntable.joint import hold_sigma
+from rig.calibration.turntable.lever_arm import lever_arm_matrix, rate_and_derivative
+from rig.calibration.turntable.move_samples import MoveSamples, calibrate_with_moves
+from rig.calibration.numerics.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
+from rig.calibration.numerics.result import TriadCalibration
 from rig.errors import CalibrationError
 from rig.pipeline.screening import resume_times
 from rig.quaternions import matrix_from_quat, rotvec_from_matrix

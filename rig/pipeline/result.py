@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.pipeline.screening import vec
 from rig.units import SENSOR_UNITS
 

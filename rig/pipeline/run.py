@@ -14,11 +14,11 @@ import os
 from pathlib import Path
 from typing import Callable
 
-from rig.calibration.recording import calibrate_recording
-from rig.calibration.recording_checks import check_no_stuck_axis
-from rig.calibration.reference_convention import refuse_conjugated_reference
-from rig.calibration.result import TriadCalibration
-from rig.calibration.threads import one_blas_thread
+from rig.calibration.recordings.recording import calibrate_recording
+from rig.calibration.recordings.recording_checks import check_no_stuck_axis
+from rig.calibration.turntable.reference_convention import refuse_conjugated_reference
+from rig.calibration.numerics.result import TriadCalibration
+from rig.calibration.numerics.threads import one_blas_thread
 from rig.errors import CalibrationError
 from rig.io.import_imu_tk import import_imu_tk
 from rig.io.session_csv import read_session
@@ -113,7 +113,7 @@ def refused_naming_lost_holds(session: SessionData, settle_s: float, excluded: d
 
 
 def calibrate_without_table(session: SessionData) -> SessionCalibration:
-    """A recording without a turntable (rig.calibration.recording): its poses, turns and motions."""
+    """A recording without a turntable (rig.calibration.recordings.recording): its poses, turns and motions."""
     rec = calibrate_recording(session, g_sensitivity=True)
     warnings = list(rec.warnings)
     for name, cal in rec.sensors.items():

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.saturation import rails
+from rig.calibration.numerics.saturation import rails
 from rig.errors import CalibrationError
 from rig.outliers import OUTLIER_SIGMAS
 from rig.session_data import HoldStats, MoveStream, SessionData
@@ -105,8 +105,8 @@ def is_rail(v: float) -> bool:
 def rail_codes(y: np.ndarray, rest_rows: np.ndarray | None = None) -> list[tuple[int, float]]:
     """(axis, value) of each extreme of a stream that may be a rail: a full-scale code of an integer ADC, or, on
     an axis whose samples at rest (`rest_rows`, the settled holds' rows) are dithered by noise, any extreme at which
-    the samples pile up (`rig.calibration.saturation.rails`). The codes alone missed a session another tool wrote:
-    a logger that clips elsewhere (a range set below the ADC's, an offset already taken off) calibrated an
+    the samples pile up (`rig.calibration.numerics.saturation.rails`). The codes alone missed a session another tool
+    wrote: a logger that clips elsewhere (a range set below the ADC's, an offset already taken off) calibrated an
     accelerometer clipped in 2 holds 6 % off, a gyro clipped in its moves 27 % off, both with exit 0. Not on a
     quiet axis: a sensor without noise reads one code through a whole hold (or a cruise at constant rate), which
     piles up at the stream's extreme as clipping does. Each hold or move is still judged by its own pile

@@ -11,10 +11,11 @@ from typing import Callable
 
 import numpy as np
 
-from rig.calibration import gyro, joint, lever_arm, observability, twostep
-from rig.calibration.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
-from rig.calibration.result import TriadCalibration
-from rig.calibration.sampling import JITTER_SHARE, TABLE_MARGIN, move_timing, refuse_coarse_motions, rotation_steps
+from rig.calibration.turntable import gyro, joint, lever_arm, observability, twostep
+from rig.calibration.numerics.quantisation import QUANTISATION_STD, noise_sigma, rounding_bias_rms
+from rig.calibration.numerics.result import TriadCalibration
+from rig.calibration.turntable.sampling import (JITTER_SHARE, TABLE_MARGIN, move_timing, refuse_coarse_motions,
+                                                rotation_steps)
 from rig.errors import CalibrationError
 from rig.pipeline.screening import trusted_moves
 from rig.rotations import matrix_from_quat
@@ -121,7 +122,8 @@ def warn_coarse_sampling(moves: list[MoveStream], cal: TriadCalibration, warning
 
 def warn_irregular_sampling(moves: list[MoveStream], cal: TriadCalibration, warnings: list[str]) -> None:
     """Samples lost, or stamped away from the chip's sample instants, while the gyro turned: the moves' angles are
-    off by the rate's change times the time error, and H with them (`rig.calibration.sampling.move_timing`)."""
+    off by the rate's change times the time error, and H with them
+    (`rig.calibration.turntable.sampling.move_timing`)."""
     timing = move_timing(moves, cal.B, cal.H)
     if not timing.irregular:
         return
@@ -164,7 +166,7 @@ def check_result(name: str, cal: TriadCalibration, norm: float | None, warnings:
 
 
 def add_lever_arm(session: SessionData, sensors: dict[str, TriadCalibration], warnings: list[str]) -> None:
-    """Locate the accelerometer relative to the table axes from the move rows (rig.calibration.lever_arm),
+    """Locate the accelerometer relative to the table axes from the move rows (rig.calibration.turntable.lever_arm),
     stored under the accel calibration for the attitude filters. Sessions that do not sample the
     accelerometer during moves are left as they are; a failed fit is a warning, never a failed calibration.
     """

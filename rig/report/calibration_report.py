@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.io.atomic import write_text_atomic
 from rig.report.limits import REASONS, LimitCheck, check_limits, validate_limits, verdict
 from rig.report.markdown import cell, flattened, number, table

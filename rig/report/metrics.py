@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rig.calibration.integrate import integrate_rotation
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.integrate import integrate_rotation
+from rig.calibration.numerics.result import TriadCalibration
 from rig.session_data import SessionData
 from rig.units import SENSOR_UNITS
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.errors import InputError
 from rig.pipeline.writing import CALIBRATION_FILE
 from rig.report.calibration_report import write_report

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.io.atomic import write_text_atomic
 from rig.report import plots
 from rig.report.calibration_report import truth_per_sensor

@@ -8,7 +8,7 @@ import json
 import numpy as np
 from click.testing import CliRunner
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.commands.attitude import attitude
 from rig.io.calibration_json import write_calibration
 from rig.io.session_writer import write_session

@@ -3,7 +3,7 @@
 import pytest
 
 from procedures.validation import validate_session
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.errors import CalibrationError
 from tests.io.io_synthetic import build_session
 

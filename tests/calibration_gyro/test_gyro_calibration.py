@@ -5,8 +5,8 @@ import pytest
 
 from gyro_synth import rel_err, rng  # noqa: F401  (fixture)
 from procedures.paper_table2 import random_gyro_truth, simulate_gyro_moves
-from rig.calibration.gyro import calibrate_gyro_ukf, gyro_bias
-from rig.calibration.gyro_baselines import calibrate_gyro_trust_region
+from rig.calibration.turntable.gyro import calibrate_gyro_ukf, gyro_bias
+from rig.calibration.turntable.gyro_baselines import calibrate_gyro_trust_region
 from rig.session_data import MoveStream
 
 
@@ -97,7 +97,7 @@ def _filterpy_move_update(x, P, Q, one, s, r_var, fit_points):
     """The fit's predict and update of one move through filterpy's UnscentedKalmanFilter, the reference."""
     from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-    from rig.calibration.gyro import rotation_residuals
+    from rig.calibration.turntable.gyro import rotation_residuals
 
     points = MerweScaledSigmaPoints(9, alpha=fit_points.alpha, beta=fit_points.beta, kappa=fit_points.kappa)
     ukf = UnscentedKalmanFilter(dim_x=9, dim_z=3, dt=1.0, fx=lambda x, dt: x, hx=None, points=points)
@@ -113,7 +113,7 @@ def _filterpy_move_update(x, P, Q, one, s, r_var, fit_points):
 def test_fit_equals_filterpys_unscented_filter(rng, monkeypatch, noise):
     """The fit's batched update (filterpy's sigma points and unscented transform, the gain written out) gives
     filterpy's UnscentedKalmanFilter's result, pass by pass, to round-off."""
-    import rig.calibration.gyro as gyro
+    import rig.calibration.turntable.gyro as gyro
 
     for _ in range(3):
         H, B = random_gyro_truth(rng)

@@ -7,7 +7,7 @@ from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
 from gyro_synth import rng  # noqa: F401  (fixture)
-from rig.calibration.integrate import integrate_quaternion, integrate_rotation, interval_rotvecs
+from rig.calibration.numerics.integrate import integrate_quaternion, integrate_rotation, interval_rotvecs
 from rig.rotations import rot_x, rot_z, skew
 
 

@@ -9,9 +9,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from procedures.paper_table2 import random_gyro_truth, simulate_gyro_moves
-from rig.calibration.gyro import calibrate_gyro_ukf, initial_H
-from rig.calibration.gyro_baselines import calibrate_gyro_trust_region
-from rig.calibration.gyro_start import linear_start, reference_stretches
+from rig.calibration.turntable.gyro import calibrate_gyro_ukf, initial_H
+from rig.calibration.turntable.gyro_baselines import calibrate_gyro_trust_region
+from rig.calibration.turntable.gyro_start import linear_start, reference_stretches
 from rig.session_data import MoveStream
 
 from gyro_synth import rel_err, rng  # noqa: F401

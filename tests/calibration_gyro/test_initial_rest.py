@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from gyro_synth import handheld_record, rel_err
-from rig.calibration.static_detect import find_initial_rest, window_samples
-from rig.calibration.turntable_free import calibrate_turntable_free
+from rig.calibration.numerics.static_detect import find_initial_rest, window_samples
+from rig.calibration.recordings.turntable_free import calibrate_turntable_free
 
 
 @pytest.mark.parametrize("rest_s", [7.0, 50.0])

@@ -1,12 +1,12 @@
-"""Lost samples and scattered stamps in a gyro's moves are measured and named (`rig.calibration.sampling.
+"""Lost samples and scattered stamps in a gyro's moves are measured and named (`rig.calibration.turntable.sampling.
 move_timing`, the pipeline's warning): a rig whose loop falls behind its chip on a real clock (the mixed rig on a
 loaded host: stamps 17 ms before to 7 ms after the chip's sample instants, moves off by up to 0.5 %) otherwise
 calibrated the gyro tenths of a percent off with no word of why."""
 
 import numpy as np
 
-from rig.calibration.result import TriadCalibration
-from rig.calibration.sampling import move_timing
+from rig.calibration.numerics.result import TriadCalibration
+from rig.calibration.turntable.sampling import move_timing
 from rig.pipeline.solving import warn_coarse_sampling, warn_irregular_sampling
 from rig.session_data import MoveStream
 

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from hand_synth import QUICK, SLOW, hand_session
-from rig.calibration.sampling import MARGIN, Coarseness, HandIntegration, coarseness
-from rig.calibration.turntable_free import calibrate_turntable_free
-from rig.calibration.turntable_free_gyro import still_noise
+from rig.calibration.turntable.sampling import MARGIN, Coarseness, HandIntegration, coarseness
+from rig.calibration.recordings.turntable_free import calibrate_turntable_free
+from rig.calibration.recordings.turntable_free_gyro import still_noise
 from rig.session_data import MoveStream
 
 SEEDS = range(16)

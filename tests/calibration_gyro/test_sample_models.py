@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from gyro_synth import rel_err, rng  # noqa: F401  (fixture)
-from rig.calibration.gyro import calibrate_gyro
-from rig.calibration.integrate import interval_terms, product_of_exps
+from rig.calibration.turntable.gyro import calibrate_gyro
+from rig.calibration.numerics.integrate import interval_terms, product_of_exps
 from rig.rotations import matrix_from_quat, rot_x, rot_z
 from rig.session_data import MoveStream
 

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from gyro_synth import XSENS, handheld_record, rel_err, rng  # noqa: F401  (fixture)
-from rig.calibration.static_detect import detect_static_intervals, first_samples, window_samples
-from rig.calibration.turntable_free import calibrate_turntable_free, turntable_free_accel
+from rig.calibration.numerics.static_detect import detect_static_intervals, first_samples, window_samples
+from rig.calibration.recordings.turntable_free import calibrate_turntable_free, turntable_free_accel
 from rig.errors import CalibrationError
 
 

@@ -1,12 +1,12 @@
 """A turn about the vertical between two poses: the accelerometer stays (nearly) still through it and imu_tk's
-detector takes both poses and the turn for one; the gyro sees it (`rig.calibration.gyro_still`)."""
+detector takes both poses and the turn for one; the gyro sees it (`rig.calibration.recordings.gyro_still`)."""
 
 import numpy as np
 
 from gyro_synth import handheld_record, rel_err, rng  # noqa: F401  (fixture)
-from rig.calibration.gyro_still import split_turning, turning_threshold
-from rig.calibration.static_detect import detect_static_intervals, find_initial_rest
-from rig.calibration.turntable_free import calibrate_turntable_free
+from rig.calibration.recordings.gyro_still import split_turning, turning_threshold
+from rig.calibration.numerics.static_detect import detect_static_intervals, find_initial_rest
+from rig.calibration.recordings.turntable_free import calibrate_turntable_free
 
 VERTICAL = (4, 11)          # the moves into poses 5 and 12 turn about the vertical
 

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from rig.calibration.ellipsoid import fit_ellipsoid
-from rig.calibration.joint import calibrate_joint
-from rig.calibration.twostep import calibrate_two_step
-from rig.calibration.uncertainty import bootstrap_uncertainty
-from rig.calibration.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
+from rig.calibration.numerics.ellipsoid import fit_ellipsoid
+from rig.calibration.turntable.joint import calibrate_joint
+from rig.calibration.turntable.twostep import calibrate_two_step
+from rig.calibration.numerics.uncertainty import bootstrap_uncertainty
+from rig.calibration.turntable.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
 from rig.errors import CalibrationError
 from rig.rotations import rot_x, rot_z
 

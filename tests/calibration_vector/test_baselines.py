@@ -4,8 +4,8 @@ cannot recover the mounting rotation."""
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from rig.calibration.twostep import calibrate_two_step
-from rig.calibration.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
+from rig.calibration.turntable.twostep import calibrate_two_step
+from rig.calibration.turntable.vector_baselines import calibrate_sensor_frame_only, calibrate_sqp
 
 from vector_synth import accel_truth, h_error, mag_truth, random_rotations
 

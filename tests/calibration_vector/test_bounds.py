@@ -4,8 +4,8 @@ holds, and refuses schedules that cannot determine B and H."""
 import numpy as np
 import pytest
 
-from rig.calibration.bounds import cramer_rao
-from rig.calibration.joint import calibrate_joint
+from rig.calibration.turntable.bounds import cramer_rao
+from rig.calibration.turntable.joint import calibrate_joint
 from rig.errors import CalibrationError
 from rig.rotations import rot_x, rot_z
 

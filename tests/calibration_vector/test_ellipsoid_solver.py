@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from rig.calibration.ellipsoid import fit_ellipsoid
-from rig.calibration.twostep import calibrate_two_step
+from rig.calibration.numerics.ellipsoid import fit_ellipsoid
+from rig.calibration.turntable.twostep import calibrate_two_step
 from rig.errors import CalibrationError
 
 

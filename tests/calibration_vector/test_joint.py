@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from rig.calibration.joint import calibrate_joint
-from rig.calibration.twostep import calibrate_two_step
+from rig.calibration.turntable.joint import calibrate_joint
+from rig.calibration.turntable.twostep import calibrate_two_step
 from rig.errors import CalibrationError
 
 from vector_synth import accel_truth, h_error, mag_truth, random_rotations
@@ -107,7 +107,7 @@ def test_six_holds_without_two_step_start_reach_the_bound_not_a_wrong_minimum(se
     minimum with reduced chi-square 2e4-3e4 and H off by 200-1200 % on these two schedules."""
     from procedures.paper_table1 import B_A, H_A
     from rig.units import STANDARD_GRAVITY as G
-    from rig.calibration.bounds import cramer_rao
+    from rig.calibration.turntable.bounds import cramer_rao
     from scipy.spatial.transform import Rotation
     rng = np.random.default_rng(seed)
     R = Rotation.random(6, random_state=rng).as_matrix()

@@ -11,7 +11,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parents[1] / "independent_vary"))
 import vary_sim as vs  # noqa: E402
 
-from rig.calibration.lever_arm import compensate, estimate_lever_arm  # noqa: E402
+from rig.calibration.turntable.lever_arm import compensate, estimate_lever_arm  # noqa: E402
 
 G = 9.80665
 RATE_HZ = 200.0
@@ -150,7 +150,7 @@ def test_lever_arm_survives_the_calibration_file(lever_arm_calibration) -> None:
 
 
 def test_a_failed_lever_arm_fit_is_a_warning_not_a_failure(monkeypatch, tmp_path) -> None:
-    import rig.calibration.lever_arm as lever_arm
+    import rig.calibration.turntable.lever_arm as lever_arm
     from rig.io.session_csv import read_session
     from rig.pipeline import calibrate_session
 

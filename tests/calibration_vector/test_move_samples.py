@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rig.calibration.bounds import cramer_rao
-from rig.calibration.joint import calibrate_joint
-from rig.calibration.move_samples import MoveSamples, calibrate_with_moves
+from rig.calibration.turntable.bounds import cramer_rao
+from rig.calibration.turntable.joint import calibrate_joint
+from rig.calibration.turntable.move_samples import MoveSamples, calibrate_with_moves
 from rig.pipeline.move_rows import reference_rate
 from rig.rotations import TableGeometry
 from rig.schedule import plan_orientations

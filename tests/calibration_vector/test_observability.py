@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from rig.calibration.observability import check_schedule
+from rig.calibration.turntable.observability import check_schedule
 from rig.rotations import TableGeometry, rot_x, rot_z
 
 OUTER = np.repeat([0.0, 60, 120, 180, 240, 300], 3)

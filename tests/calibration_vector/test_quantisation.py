@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from rig.calibration.joint import calibrate_joint
-from rig.calibration.quantisation import mean_standard_error
+from rig.calibration.turntable.joint import calibrate_joint
+from rig.calibration.numerics.quantisation import mean_standard_error
 
 
 @pytest.mark.parametrize("sigma", [0.0, 0.1, 0.2, 0.3, 0.45, 1.0])

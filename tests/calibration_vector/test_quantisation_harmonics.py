@@ -1,9 +1,9 @@
-"""The rounding-bias series cut where its terms cannot change the sum gives the full 64-harmonic sum to rounding; the noise
-ahead of a coarse rounding is found from where the poses sit on the grid."""
+"""The rounding-bias series cut where its terms cannot change the sum gives the full 64-harmonic sum to rounding; the
+noise ahead of a coarse rounding is found from where the poses sit on the grid."""
 
 import numpy as np
 
-from rig.calibration import quantisation as Q
+from rig.calibration.numerics import quantisation as Q
 from rig.noise.rounding import noise_sigma_at
 
 EPS = np.finfo(float).eps

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from rig.calibration.joint import calibrate_joint
-from rig.calibration.twostep import calibrate_two_step
+from rig.calibration.turntable.joint import calibrate_joint
+from rig.calibration.turntable.twostep import calibrate_two_step
 
 from vector_synth import accel_truth, h_error, mag_truth, random_rotations
 

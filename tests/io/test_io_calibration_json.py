@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.io.calibration_json import CalibrationFileError, read_calibration, triads_from_calibration, write_calibration
 
 

@@ -18,7 +18,7 @@ from rig.errors import SessionFormatError
 from rig.io.calibration_json import CalibrationFileError, read_calibration, write_calibration
 from rig.io.session_csv import read_session
 from rig.io.session_writer import write_session
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 
 RIG = [sys.executable, "-m", "rig.cli"]
 

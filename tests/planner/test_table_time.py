@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.pipeline.result import SessionCalibration
 from rig.pipeline.writing import table_time_s, write_session_calibration
 from rig.session_data import SessionData

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from rig.schedule import Orientation, plan_orientations, schedule_rotations
-from rig.calibration.bounds import cramer_rao
+from rig.calibration.turntable.bounds import cramer_rao
 
 G = 9.80665
 FIELD = 50.0 * np.array([np.cos(np.radians(64)) * np.sin(np.radians(12)),

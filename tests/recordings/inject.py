@@ -10,7 +10,7 @@ import numpy as np
 
 from fixtures.world.effects import EFFECTS as TERMS
 from fixtures.world.effects_base import RANGES
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.effects import EFFECTS as VOCABULARY
 from rig.session_data import SessionData
 

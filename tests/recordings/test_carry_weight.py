@@ -1,6 +1,6 @@
-"""A hand motion's carried gravity weighed along its angle and across its axis apart (`rig.calibration.carry_weight`):
-where the gyro reads each flip at a scale of its own, the turns of known angle keep the scale and the motions still
-fix the axes."""
+"""A hand motion's carried gravity weighed along its angle and across its axis apart
+(`rig.calibration.recordings.carry_weight`): where the gyro reads each flip at a scale of its own, the turns of known
+angle keep the scale and the motions still fix the axes."""
 
 from __future__ import annotations
 
@@ -13,11 +13,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 
-from rig.calibration.carry_choice import carry_weight_by_cross_validation  # noqa: E402
-from rig.calibration.carry_weight import PRIOR, TURNS_ONLY, CarryWeight, angle_directions, weighted_miss  # noqa: E402
-from rig.calibration.recording import calibrate_recording  # noqa: E402
-from rig.calibration.recording_gyro import motion, summed_rate  # noqa: E402
-from rig.calibration.recording_vector import gravity_directions  # noqa: E402
+from rig.calibration.recordings.carry_choice import carry_weight_by_cross_validation  # noqa: E402
+from rig.calibration.recordings.carry_weight import (  # noqa: E402
+    PRIOR, TURNS_ONLY, CarryWeight, angle_directions, weighted_miss)
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording_gyro import motion, summed_rate  # noqa: E402
+from rig.calibration.recordings.recording_vector import gravity_directions  # noqa: E402
 from rig.noise.statistics import recording_statistics  # noqa: E402
 from rig.rotations import axis_angle_matrix  # noqa: E402
 

@@ -1,6 +1,6 @@
-"""A gyro that answers to specific force is calibrated with it (`rig.calibration.g_sensitivity`): `rig calibrate`
-on a hand-held recording finds it blind in the poses' means, writes it as `g_sensitivity` under the gyro, and fits H
-on the rate without it; a gyro without one gets none."""
+"""A gyro that answers to specific force is calibrated with it (`rig.calibration.recordings.g_sensitivity`): `rig
+calibrate` on a hand-held recording finds it blind in the poses' means, writes it as `g_sensitivity` under the gyro, and
+fits H on the rate without it; a gyro without one gets none."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_unseen_recordings import G, imported, recording, rig, write_csv  # noqa: E402
 
-from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
 from rig.discrepancy.recording import recording_tests  # noqa: E402
 from rig.io.calibration_json import CalibrationFileError, read_calibration, triads_from_calibration  # noqa: E402
 from rig.io.session_csv import read_session  # noqa: E402
@@ -91,8 +91,9 @@ def test_the_file_round_trip_applies_it_and_a_broken_one_is_named(tmp_path):
 def test_a_turn_about_the_vertical_between_two_poses_does_not_hide_it(tmp_path):
     """imu_tk's detector watches the accelerometer, which a turn about the vertical leaves still: seed 5 has a 71 deg
     one between poses 3 and 4, which it took, with both poses, for one pose whose gyro mean was the turn's (p = 0.58
-    for the g-sensitivity). The gyro now parts them (`rig.calibration.gyro_still`): every pose the generator held is
-    found, each inside one of them, and the calibration and the discrepancy analysis find the g-sensitivity on all."""
+    for the g-sensitivity). The gyro now parts them (`rig.calibration.recordings.gyro_still`): every pose the generator
+    held is found, each inside one of them, and the calibration and the discrepancy analysis find the g-sensitivity on
+    all."""
     rec = recording(5, poses=POSES)
     with_g_sensitivity(rec, SIZE_DPS_PER_G, seed=105)
     session = read_session(imported(tmp_path, write_csv(tmp_path / "log.csv", rec)))

@@ -1,5 +1,5 @@
-"""Held-out scoring of a recording's calibration (rig.calibration.heldout), on synthetic Ferraris recordings whose
-truth is known, and the peer (imucal) run beside ours as the benchmark runs it."""
+"""Held-out scoring of a recording's calibration (rig.calibration.recordings.heldout), on synthetic Ferraris recordings
+whose truth is known, and the peer (imucal) run beside ours as the benchmark runs it."""
 
 from __future__ import annotations
 
@@ -16,13 +16,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 from ferraris_synth import G, generate  # noqa: E402
 from paths import DATA  # noqa: E402
 
-from rig.calibration.heldout import heldout_scores, score_series, scoring_layout, series  # noqa: E402
-from rig.calibration.recording import RecordingCalibration, calibrate_recording  # noqa: E402
-from rig.calibration.recording_fits import turn_angle  # noqa: E402
-from rig.calibration.recording_gyro import summed_rate  # noqa: E402
-from rig.calibration.rests import rest_motions, unlabelled_rests  # noqa: E402
-from rig.calibration.result import TriadCalibration  # noqa: E402
-from rig.calibration.segments import segments_of  # noqa: E402
+from rig.calibration.recordings.heldout import heldout_scores, score_series, scoring_layout, series  # noqa: E402
+from rig.calibration.recordings.recording import RecordingCalibration, calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording_fits import turn_angle  # noqa: E402
+from rig.calibration.recordings.recording_gyro import summed_rate  # noqa: E402
+from rig.calibration.recordings.rests import rest_motions, unlabelled_rests  # noqa: E402
+from rig.calibration.numerics.result import TriadCalibration  # noqa: E402
+from rig.calibration.recordings.segments import segments_of  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 
 FERRARIS = DATA / "imucal-ferraris"

@@ -17,7 +17,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from inject import SIZES, inject
 from paths import DATA
 
-from rig.calibration.recording import calibrate_recording
+from rig.calibration.recordings.recording import calibrate_recording
 from rig.commands.common import read_any_session
 from rig.discrepancy.recording import recording_tests
 

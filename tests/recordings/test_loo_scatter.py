@@ -14,11 +14,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 from test_unseen_recordings import G, recording  # noqa: E402
 
-from rig.calibration.jackknife import jackknife_sd, one_step_deletions, scatter_to_stated  # noqa: E402
-from rig.calibration.recording import calibrate_recording  # noqa: E402
-from rig.calibration.recording_fits import gyro_rotation_fit  # noqa: E402
-from rig.calibration.recording_gyro import motion, summed_rate  # noqa: E402
-from rig.calibration.recording_vector import gravity_directions  # noqa: E402
+from rig.calibration.numerics.jackknife import jackknife_sd, one_step_deletions, scatter_to_stated  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording_fits import gyro_rotation_fit  # noqa: E402
+from rig.calibration.recordings.recording_gyro import motion, summed_rate  # noqa: E402
+from rig.calibration.recordings.recording_vector import gravity_directions  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 from rig.noise.statistics import loo_scatter_ratios  # noqa: E402
 

@@ -18,8 +18,8 @@ from mag_synth import mag_truth, readings  # noqa: E402
 from test_unseen_recordings import one_clear_line, rig  # noqa: E402
 from tumble_synth import level_turns, tumble  # noqa: E402
 
-from rig.calibration.mag_alone import calibrate_mag_alone  # noqa: E402
-from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.mag_alone import calibrate_mag_alone  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 

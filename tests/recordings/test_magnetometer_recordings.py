@@ -17,8 +17,8 @@ from ferraris_synth import generate  # noqa: E402
 from mag_synth import mag_truth, readings  # noqa: E402
 from test_unseen_recordings import COLUMNS, G, SI, recording, rig  # noqa: E402
 
-from rig.calibration.recording import calibrate_recording  # noqa: E402
-from rig.calibration.threads import one_blas_thread  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
+from rig.calibration.numerics.threads import one_blas_thread  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 
 Z_MAX = 4.5          # every element of B and H within this many of its stated standard deviations

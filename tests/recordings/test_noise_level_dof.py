@@ -8,8 +8,8 @@ import numpy as np
 
 from procedures.twin.draws import level_dof
 from procedures.twin.noise import quiet_spread
-from rig.calibration.recording import RecordingCalibration
-from rig.calibration.segments import Pose
+from rig.calibration.recordings.recording import RecordingCalibration
+from rig.calibration.recordings.segments import Pose
 from rig.io.recording import recording_session
 
 LENGTHS = (150, 300, 500, 800, 1200, 400)

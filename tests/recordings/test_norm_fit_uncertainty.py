@@ -1,5 +1,5 @@
-"""The deviations the norm-only accelerometer fit states (`rig.calibration.norm_fit_cov`) against its errors on hand
-sessions with a known truth: the z = (estimate - truth) / stated of B, H's diagonal and H's upper off-diagonal.
+"""The deviations the norm-only accelerometer fit states (`rig.calibration.numerics.norm_fit_cov`) against its errors on
+hand sessions with a known truth: the z = (estimate - truth) / stated of B, H's diagonal and H's upper off-diagonal.
 
 The fit's H is upper triangular (imu_tk's convention: no rotation is seen without known orientations), so the truth
 is brought to it: Ha = Q R with R upper triangular and a positive diagonal gives |Ha x| = |R x| for every x, and R
@@ -17,8 +17,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_unseen_recordings import G, recording  # noqa: E402
 
-from rig.calibration.norm_fit_cov import stated_uncertainty  # noqa: E402
-from rig.calibration.turntable_free import fit_accel_upper  # noqa: E402
+from rig.calibration.numerics.norm_fit_cov import stated_uncertainty  # noqa: E402
+from rig.calibration.recordings.turntable_free import fit_accel_upper  # noqa: E402
 
 POSE_OFFSET = 0.03          # m/s^2 per axis, three times the samples' noise in a pose mean of 100
 

@@ -14,7 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mag_synth import mag_truth, readings  # noqa: E402
 from slow_sweep_synth import GRAVITY, slow_sweep  # noqa: E402
 
-from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 
 SEEDS = range(4)

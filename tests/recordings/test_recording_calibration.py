@@ -16,9 +16,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ferraris_synth import generate  # noqa: E402
 from paths import DATA  # noqa: E402
 
-from rig.calibration.recording import calibrate_recording  # noqa: E402
-from rig.calibration.recording_fits import turn_angle  # noqa: E402
-from rig.calibration.recording_gyro import summed_rate  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording_fits import turn_angle  # noqa: E402
+from rig.calibration.recordings.recording_gyro import summed_rate  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.io.session_writer import write_session  # noqa: E402
 

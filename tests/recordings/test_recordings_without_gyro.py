@@ -18,8 +18,8 @@ from mag_synth import INCLINATION_DEG  # noqa: E402
 from test_magnetometer_recordings import frame_of, hand_session  # noqa: E402
 from test_unseen_recordings import G, rig  # noqa: E402
 
-from rig.calibration.recording import calibrate_recording  # noqa: E402
-from rig.calibration.threads import one_blas_thread  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
+from rig.calibration.numerics.threads import one_blas_thread  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
 
 Z_MAX = 4.5

@@ -17,7 +17,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 from test_unseen_recordings import gyro_not_calibrated, imported, one_clear_line, recording, rig, write_csv  # noqa: E402
 
-from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.noise.statistics import pinned_fraction  # noqa: E402
 
@@ -122,7 +122,7 @@ def test_both_ends_of_a_twos_complement_code_are_rails_once_one_of_them_piles_up
     """An MPU-6050 logged in counts (tomisuarez2/ImuCalibration's session): its gyro x piled 10 samples at -32768
     and touched +32767 twice in another motion, too few for a pile; that motion was fitted as if whole. A pile at
     -2^15 says the code is 16 bits: +32767 is its other end, on every axis of the sensor."""
-    from rig.calibration.saturation import pinned_rows
+    from rig.calibration.numerics.saturation import pinned_rows
 
     rng = np.random.default_rng(3)
     y = np.round(rng.normal(0, 4000.0, (3000, 3)))

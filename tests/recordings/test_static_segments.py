@@ -15,8 +15,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ferraris_synth import generate  # noqa: E402
 from test_unseen_recordings import one_clear_line, rig  # noqa: E402
 
-from rig.calibration.segments import segments_of  # noqa: E402
-from rig.calibration.static_segments import check_static_segments  # noqa: E402
+from rig.calibration.recordings.segments import segments_of  # noqa: E402
+from rig.calibration.recordings.static_segments import check_static_segments  # noqa: E402
 from rig.errors import InputError  # noqa: E402
 from rig.io.session_csv import read_session  # noqa: E402
 from rig.io.session_writer import write_session  # noqa: E402

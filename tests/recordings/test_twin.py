@@ -22,7 +22,7 @@ from procedures.twin.analysis import analyse_twin  # noqa: E402
 from procedures.twin.extension import spectral_taps, white_peak_chance  # noqa: E402
 from fixtures.world.effects.noise import peak_density_ratio  # noqa: E402
 from rig.io.recording import recording_session  # noqa: E402
-from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
 from rig.io.session_writer import write_session  # noqa: E402
 
 RIG = [sys.executable, "-m", "rig.cli"]
@@ -157,7 +157,7 @@ def test_taking_the_named_g_sensitivity_into_the_calibration_improves_what_it_pr
     E3) spoils the gravity carried across a left-out motion; with the g-sensitivity the recording tests found
     removed from the gyro before every refit, the prediction comes back to that of the same recording without it."""
     from procedures.twin.model import heldout_change, model_causes
-    from rig.calibration.heldout import heldout_scores
+    from rig.calibration.recordings.heldout import heldout_scores
 
     session, _ = generate(5, face_s=8.0)
     clean = heldout_scores(session)[0].summary()["gyro_carry_deg"]["rms"]

@@ -16,7 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from hand_motions import Hand, hand_recording, hand_session  # noqa: E402
 
 from procedures.twin.analysis import analyse_twin  # noqa: E402
-from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
 from rig.discrepancy.recording import recording_tests  # noqa: E402
 from rig.io.session_writer import write_session  # noqa: E402
 

@@ -16,7 +16,7 @@ from ferraris_synth import generate  # noqa: E402
 from procedures.twin.motion import align, attitudes  # noqa: E402
 from procedures.twin.replay import reconstruct, twin_view  # noqa: E402
 from procedures.twin.replicas import Background, ReplicaJob, replica_runs, replica_statistics  # noqa: E402
-from rig.calibration.recording import calibrate_recording  # noqa: E402
+from rig.calibration.recordings.recording import calibrate_recording  # noqa: E402
 from rig.errors import CalibrationError  # noqa: E402
 from rig.noise.statistics import _distinct, band_powers  # noqa: E402
 from rig.rotations import matrix_from_rotvec  # noqa: E402

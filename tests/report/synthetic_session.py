@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.rotations import TableGeometry, quat_from_matrix
 from rig.session_data import SessionData
 

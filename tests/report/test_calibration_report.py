@@ -10,7 +10,7 @@ from report_tables import column, metric_values, tables_by_heading
 from scipy.spatial.transform import Rotation
 from synthetic_session import G, M, ORIENTATIONS, TRUE, make_session, true_calibrations, truth_dict
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.report.calibration_report import write_report
 from rig.report.limits import LimitsError
 from rig.rotations import TableGeometry

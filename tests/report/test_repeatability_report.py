@@ -9,7 +9,7 @@ import pytest
 from report_tables import column, tables_by_heading
 from synthetic_session import TRUE, truth_dict
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.report.repeatability import write_repeatability_report
 
 B_NOISE = {"accel": 2.0, "gyro": 0.5, "mag": 4.0}

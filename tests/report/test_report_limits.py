@@ -11,7 +11,7 @@ import numpy as np
 from report_tables import tables_by_heading
 from synthetic_session import G, M, make_session, true_calibrations
 
-from rig.calibration.result import TriadCalibration
+from rig.calibration.numerics.result import TriadCalibration
 from rig.report.calibration_report import write_report
 from rig.report.limits import REASONS, validate_limits
 

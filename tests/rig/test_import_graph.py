@@ -25,8 +25,9 @@ LAZY_ALLOWED = {
                                  "naming the extra when it is missing",
     ("rig.attitude.peers", "ahrs.filters"): "a peer's filter, loaded only when the comparison with it is asked for",
     ("rig.noise.allan", "allantools"): "start-up: allantools only when an Allan deviation is computed",
-    ("rig.calibration.gyro", "filterpy.kalman"): "start-up: filterpy loads scipy.stats, about a second, which only the "
-                                                 "turntable gyro's UKF uses; every calibration imports the module",
+    ("rig.calibration.turntable.gyro", "filterpy.kalman"): "start-up: filterpy loads scipy.stats, about a second, "
+                                                           "which only the turntable gyro's UKF uses; every "
+                                                           "calibration imports the module",
     ("rig.noise.statistics", "scipy.signal"): "start-up: scipy.signal only for a spectrum",
     ("rig.discrepancy.plots", "matplotlib"): "start-up: matplotlib only when plots are written",
     ("rig.discrepancy.plots", "matplotlib.pyplot"): "start-up: matplotlib only when plots are written",
@@ -200,8 +201,10 @@ def test_no_loop_between_packages():
 
 def test_the_visitor_sees_an_import_inside_a_function_and_resolves_relative_ones():
     visitor = _Imports("rig.discrepancy.analysis", False)
-    visitor.visit(ast.parse("import numpy\nfrom . import plots\ndef f():\n    from ..calibration import joint\n"))
-    assert visitor.found == [("numpy", 1, None), ("rig.discrepancy.plots", 2, None), ("rig.calibration.joint", 4, "f")]
+    source = "import numpy\nfrom . import plots\ndef f():\n    from ..calibration.turntable import joint\n"
+    visitor.visit(ast.parse(source))
+    assert visitor.found == [("numpy", 1, None), ("rig.discrepancy.plots", 2, None),
+                             ("rig.calibration.turntable.joint", 4, "f")]
     assert layer("rig.commands.calibrate") > layer("procedures.session") > layer("fixtures.simrig") > layer("rig.units")
 
 

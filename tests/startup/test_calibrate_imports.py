@@ -14,10 +14,12 @@ import sys
 
 import pytest
 
-CALIBRATION_PATH = ["rig.calibration.gyro", "rig.calibration.gyro_start", "rig.calibration.joint",
-                    "rig.calibration.lever_arm", "rig.calibration.twostep", "rig.calibration.ellipsoid",
-                    "rig.calibration.quantisation", "rig.calibration.integrate", "rig.rotations", "rig.quaternions",
-                    "rig.session_data", "rig.calibration.regression", "rig.calibration.recording", "rig.pipeline.run"]
+CALIBRATION_PATH = ["rig.calibration.turntable.gyro", "rig.calibration.turntable.gyro_start",
+                    "rig.calibration.turntable.joint", "rig.calibration.turntable.lever_arm",
+                    "rig.calibration.turntable.twostep", "rig.calibration.numerics.ellipsoid",
+                    "rig.calibration.numerics.quantisation", "rig.calibration.numerics.integrate", "rig.rotations",
+                    "rig.quaternions", "rig.session_data", "rig.calibration.numerics.regression",
+                    "rig.calibration.recordings.recording", "rig.pipeline.run"]
 RUNNING_SESSION = {"fixtures", "procedures", "pymodbus", "matplotlib", "tqdm"}
 
 

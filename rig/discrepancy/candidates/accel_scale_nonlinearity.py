@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.calibration.regression import nested_f, resvar
+from rig.calibration.numerics.regression import nested_f, resvar
 from rig.discrepancy.candidates_base import AXES, Candidate, candidate_test
 from rig.discrepancy.recording_base import Test, recording_test
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from scipy import stats
 
-from rig.calibration.recording import RecordingCalibration
+from rig.calibration.recordings.recording import RecordingCalibration
 from rig.discrepancy.candidates_base import Candidate, candidate_test
 from rig.discrepancy.recording_base import Test, recording_test, subsample
 from rig.noise.stream_delay import recording_delays, robust_delay

@@ -1,0 +1,1 @@
+"""Fits from recordings without a turntable (imu_tk, Ferraris, a magnetometer or an accelerometer alone, hand motions): still poses and quasi-static samples found in the data, gravity carried across motions, held-out checks."""
