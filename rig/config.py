@@ -88,8 +88,8 @@ def load_config(path: str | Path | None = None) -> RigConfig:
     if path is not None and profile and not Path(profile).is_absolute():
         config.turntable.profile = str(Path(path).parent / profile)     # beside the file that names it
     if profile:
-        # read here: a missing or malformed register map was found only when the session started, as a fault of
-        # the turntable (exit 3, "key '<file>': no such file"), leaving a session folder behind
+        # read here, so a missing or malformed register map is bad input before anything is created, not a fault
+        # of the turntable once the session has started
         try:
             load_profile(config.turntable.profile)
         except ValueError as e:

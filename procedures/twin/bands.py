@@ -31,8 +31,8 @@ def band_rank(m: int, percent: float) -> int:
 
 BAND_REPLICAS = 99          # the fewest whose extremes are the 1-99 % band itself (chance 1/(n+1) = 1 % a side)
 FEWEST_REPLICAS = 40        # below, the family test's chance per statistic (2/41 = 4.9 %) leaves it little power
-ROW_REPLICAS = 2_000_000    # rows x replicas that keep a whole analysis within its 30 s (the Xsens's 51 175 rows
-# at 40 replicas: 22.6-25.1 s on the 2 shared cores, README "What the simulation gets wrong on a real recording")
+ROW_REPLICAS = 2_000_000    # rows x replicas that keep a whole analysis within its 30 s on two cores (the Xsens's
+# 51 175 rows at 40 replicas; benchmarks/bench_twin.py measures it)
 
 
 def default_replicas(rows: int) -> int:

@@ -1,4 +1,4 @@
-"""Name what the twin gets wrong, extend it, measure the gain (issue 13, item 4).
+"""Name what the twin gets wrong, extend it, measure the gain.
 
 A statistic of the real recording outside its replicas' 1-99 % band is something the simulation gets wrong. Each
 noise and recording effect of the vocabulary (effects.md, "Noise and recording effects") is fitted from the real

@@ -131,7 +131,7 @@ def test_session_files_follow_the_layout(tmp_path: Path) -> None:
 # ---------------------------------------------------------------- our tool against this simulator
 # mount_rot90, mount_perm, mount_flip and hold_early_long failed when this simulator was first run (gyro start
 # point; fixed settling time); fast_mean_50hz came within 0.006 % of the H target (mean samples read as point
-# rates); gyro_lpf20ms keeps a lagging gyro honest: see FINDINGS.md. Issue 4's acceptance check is exactly this kind of session.
+# rates); gyro_lpf20ms keeps a lagging gyro honest: see FINDINGS.md.
 VARIANTS = ["baseline", "rate200", "rate50", "gyro_mean", "gyro_lpf5ms", "optical", "optical_signflip",
             "unix_jitter_drop", "multirate_mag75", "multirate_mag10", "revisit", "fullscale", "lever_arm",
             "hold_early", "slow_moves", "fast_moves", "long_moves", "sequential_axes", "unequal_holds",

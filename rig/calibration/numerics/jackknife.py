@@ -1,6 +1,6 @@
 """How much a least-squares fit moves when one piece of its data is left out, without refitting: the scatter a
-calibration's stated standard deviations are set beside (issue 13.3, "the calibration's own predicted standard
-deviations against the scatter of leave-one-out refits").
+calibration's stated standard deviations are set beside (its own predicted standard deviations against the
+scatter of leave-one-out refits).
 
 Leaving group i (its rows J_i, r_i of the weighted Jacobian and residuals at the full fit's optimum, where
 J^T r = 0) out moves the parameters by one Gauss-Newton step from there, `d_i = (J^T J - J_i^T J_i)^-1 J_i^T r_i`

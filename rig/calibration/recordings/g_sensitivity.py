@@ -2,8 +2,8 @@
 
 A MEMS gyro's proof mass answers to specific force: its rate at rest depends on how gravity lies
 (effects.md `gyro_g_sensitivity`; the Xsens MTi's pose means follow it at 0.2 deg/s per g). Left out of the model,
-that rate is integrated across every motion between poses and the gravity it carries arrives off (0.54 deg RMS on
-a left-out Xsens motion, 0.15 with it, README "Beside the peers"). The fit is the discrepancy analysis's test of it
+that rate is integrated across every motion between poses and the gravity it carries arrives off (held out motion
+by motion in benchmarks/bench_recordings.py). The fit is the discrepancy analysis's test of it
 (`rig.discrepancy.recording`): the calibrated gyro's pose means regressed on [1, f, t] (t so a drifting bias is not
 taken for it), the f block kept where its nested F test gives p < ALPHA. The gyro is then fitted again on the rate
 less `K (f - f_ref)`, f_ref the poses' average specific force, so B stays the bias over the poses. The vertical Earth

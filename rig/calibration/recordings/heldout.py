@@ -1,4 +1,4 @@
-"""What a recording's calibration predicts for data left out of its fit (issue 13.2): with no truth, the only fair
+"""What a recording's calibration predicts for data left out of its fit: with no truth, the only fair
 score of ours against a peer's on the peer's own data.
 
 * Accelerometer, leave one pose out: refit without pose i, then the norm error `|a| - g` of the calibrated

@@ -196,9 +196,9 @@ def fit_accel_upper(chunks: list[np.ndarray], gravity: float, per_sample: bool =
     `per_sample`, over their samples, as imu_tk fits (its cost chooses the static threshold).
 
     A pose's evidence about H is its mean (`norm_fit_cov`): each pose weighs the same and brings all its samples.
-    imu_tk fits the first 100 samples of each interval instead; on mikoff/imu-calib's five MPU-9150 sessions
-    (poses held 3-10 s) its fit left the mean of a left-out pose 1.4-2.5 times further from g than this one (README,
-    "Beside the peers"). The ellipsoid through the means starts the fit.
+    imu_tk fits the first 100 samples of each interval instead, which leaves a left-out pose's mean further from g
+    on poses held a few seconds (benchmarks/bench_recordings.py compares the two). The ellipsoid through the means
+    starts the fit.
     """
     means = np.array([c.mean(axis=0) for c in chunks])
     samples = np.vstack(chunks) if per_sample else means

@@ -1,4 +1,4 @@
-"""Accelerometer and magnetometer B and H from the holds and the samples taken while the table turns (issue 15.2).
+"""Accelerometer and magnetometer B and H from the holds and the samples taken while the table turns.
 
 A hold mean and a sample of a move measure the same thing, `y = K u + B + e` (joint.py), at a known orientation:
 the move's reference orientation on its row (`q_ref`, the table's encoders interpolated between polls). Two

@@ -33,8 +33,8 @@ from rig.session_data import MoveStream
 ORDER = 2          # the schemes' order where the rate profile has corners or its axis turns
 MARGIN = 5.0       # integration error per motion allowed, in units of the rate noise's angle per motion ...
 REL_FLOOR = 2e-5   # ... or of this share of the motion's angle: a nearly noiseless gyro (an independent simulator's
-# noise-free session: 0.0003 mrad of noise) was refused for 0.02 mrad per 90 deg motion, an H error of 1e-5, ten
-# times below the best gyro H this rig resolves (0.02 %, README "Planning a session")
+# noise-free session: 0.0003 mrad of noise) would be refused for 0.02 mrad per 90 deg motion, an H error of 1e-5,
+# ten times below the best gyro H this rig resolves (0.02 %, see the planning guide)
 # Where the misfit shows, the fit's stated uncertainty grows with it and covers the error; beyond this, H absorbed
 # it. Measured on synthetic sessions (tests/io, tests/recordings): right within 2 of their standard deviations at
 # up to 3.3 times (trapezoid moves with corners at 50 Hz, cosine moves at 3-3.5 Hz, hand motions at 3 Hz), wrong by
