@@ -76,7 +76,7 @@ def quasi_static_mag(session: SessionData, accel: TriadCalibration, norm: float 
             "iterations": fit.iterations, "converged": fit.converged}
     dip_sd = float(np.degrees(np.sqrt(max(xc_cov[3, 3], 0.0)) / max(np.sqrt(1.0 - sine * sine), 1e-12)))
     _refuse_untold(session, B, H, cov, norm, info)
-    dip_sd = float(np.hypot(dip_sd, _dip_sd_from_accel(accel, session.raw["accel"][rows], group[0], B, H)))
+    dip_sd = float(np.hypot(dip_sd, dip_sd_from_accel(accel, session.raw["accel"][rows], group[0], B, H)))
     field = {"field_uT_source": "given"}
     if from_data:
         scaled = to_data_field(H, norm, cov[3:, 3:], cov[:3, 3:])
@@ -121,11 +121,11 @@ def _refuse_untold(session: SessionData, B: np.ndarray, H: np.ndarray, cov: np.n
                                "a magnet carried along, or too few directions")
 
 
-def _dip_sd_from_accel(accel: TriadCalibration, a: np.ndarray, m: np.ndarray, B: np.ndarray, H: np.ndarray
+def dip_sd_from_accel(accel: TriadCalibration, a: np.ndarray, m: np.ndarray, B: np.ndarray, H: np.ndarray
                        ) -> float:
     """What the accelerometer's own B and H deviations make of the dip (deg): they are shared by every sample, so
-    the samples' scatter does not show them; the mean angle's derivatives by central differences, through B_cov
-    and H_cov (as `recording_mag` does for still poses)."""
+    the samples' scatter does not show them (nor the poses' scatter, where `a` and `m` are pose means); the mean
+    angle's derivatives by central differences, through B_cov and H_cov."""
     if accel.B_cov is None or accel.H_cov is None:
         return 0.0
     f = (m - B) @ H.T

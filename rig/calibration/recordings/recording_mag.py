@@ -19,7 +19,7 @@ import numpy as np
 from rig.calibration.numerics.field_norm import data_field_norm, to_data_field
 from rig.calibration.recordings.mag_alone import field_from_data_warning
 from rig.calibration.numerics.mag_fit import best_rotation, joint_fit, sphere_start
-from rig.calibration.recordings.quasi_static_mag import quasi_static_mag
+from rig.calibration.recordings.quasi_static_mag import dip_sd_from_accel, quasi_static_mag
 from rig.calibration.recordings.recording_checks import imported_columns
 from rig.calibration.recordings.recording_vector import gravity_directions
 from rig.calibration.numerics.result import TriadCalibration
@@ -130,18 +130,7 @@ def _dip_std_deg(fit_sd_deg: float, session: SessionData, accel: TriadCalibratio
     if accel.B_cov is None or accel.H_cov is None:
         return fit_sd_deg
     a = np.array([np.nanmean(session.raw["accel"][p.rows], axis=0) for p in poses])
-    f = (means - B) @ H.T
-    f /= np.linalg.norm(f, axis=1, keepdims=True)
-
-    def mean_angle(x: np.ndarray) -> float:
-        g = (a - x[:3]) @ x[3:].reshape(3, 3).T
-        return float(np.mean(np.arcsin(np.clip(np.sum(g * f, axis=1) / np.linalg.norm(g, axis=1), -1.0, 1.0))))
-
-    x0 = np.concatenate([accel.B, np.asarray(accel.H, float).ravel()])
-    steps = np.r_[np.full(3, 1e-6 * float(np.abs(a - accel.B).max())), np.full(9, 1e-6 * float(np.abs(accel.H).max()))]
-    grad = np.array([(mean_angle(x0 + h * e) - mean_angle(x0 - h * e)) / (2 * h) for h, e in zip(steps, np.eye(12))])
-    var = grad[:3] @ accel.B_cov @ grad[:3] + grad[3:] @ accel.H_cov @ grad[3:]
-    return float(np.hypot(fit_sd_deg, np.degrees(np.sqrt(max(var, 0.0)))))
+    return float(np.hypot(fit_sd_deg, dip_sd_from_accel(accel, a, means, B, H)))
 
 
 def near_rails(y: np.ndarray, found: list, poses: list[Pose]) -> np.ndarray:
