@@ -14,7 +14,7 @@ from scipy.stats import fisher_exact
 from procedures.twin.bands import band_chance, bands, default_replicas
 from procedures.twin.cause import Cause, quiet_of, terms_of
 from procedures.twin.extension import family, outside, propose
-from procedures.twin.model import added_rate, centred, heldout_change, model_causes
+from procedures.twin.model import added_rate, centred, heldout_change, model_causes, something_calibrated
 from procedures.twin.replay import Replay, poses_alone, reconstruct, twin_view
 from procedures.twin.replicas import Background, ReplicaJob, replica_runs
 from procedures.twin.vibration import gyro_rate
@@ -45,7 +45,7 @@ def _analyse_twin(session: SessionData, *, replicas: int, attribution_replicas: 
     pushes out is dropped and the rest run again (`kept_causes`). The held-out refits run beside them."""
     t0 = time.perf_counter()
     calibrate = still_log_calibration if is_still_log(session) else calibrate_recording
-    rec = calibrate(session)
+    rec = something_calibrated(session, calibrate(session))
     rate = gyro_rate(session, rec)             # the gyro as recorded, even where it is left out below
     view = twin_view(session, rec)
     not_analysed = dict(rec.refused)           # a sensor that cannot be calibrated (the gyro of hand-held poses)

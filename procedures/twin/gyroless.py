@@ -21,6 +21,7 @@ from procedures.twin.extension import family, outside
 from procedures.twin.field_statistics import field_statistics, reference_norm
 from procedures.twin.offset_flip import OffsetFlip, offset_flip
 from procedures.twin.replay import Replay
+from procedures.twin.model import something_calibrated
 from procedures.twin.replicas import ReplicaJob, replica_runs
 from rig.calibration.recordings.recording import calibrate_recording
 from rig.calibration.numerics.threads import one_blas_thread
@@ -41,7 +42,8 @@ def analyse_gyroless_twin(session: SessionData, *, replicas: int | None = None, 
 
 def _analyse(session: SessionData, replicas: int, attribution_replicas: int, seed: int) -> dict:
     t0 = time.perf_counter()
-    rec = calibrate_recording(session)     # the poses it finds are not named: a turn inside one is not refused
+    # the poses it finds are not named: a turn inside one is not refused
+    rec = something_calibrated(session, calibrate_recording(session))
     real = field_statistics(session, rec)
     replay = reconstruct_from_directions(session, rec, field_statistics)
     seeds = list(range(seed * 10_000, seed * 10_000 + replicas))

@@ -15,6 +15,7 @@ from procedures.twin.cause import Cause
 from rig.calibration.recordings.heldout import heldout_scores
 from rig.calibration.recordings.recording import RecordingCalibration
 from rig.discrepancy.recording import recording_tests
+from rig.errors import CalibrationError
 from rig.session_data import SessionData, filled
 
 
@@ -79,3 +80,18 @@ def _cause(test: dict) -> Cause | None:
     effect = term.from_recording_test(sensor, magnitude, params)
     return Cause(test["effect"], sensor, magnitude, params, term.twin_statistics,
                  lambda seed: [term.from_recording_test(sensor, magnitude, params)], rate=effect.added_rate, model=True)
+
+
+class NothingCalibrated(CalibrationError):
+    """No sensor of the recording could be calibrated: nothing is analysed, as `calibrate --from` writes nothing
+    calibrated (a check that did not pass, not a fault)."""
+
+
+def something_calibrated(session: SessionData, rec: RecordingCalibration) -> RecordingCalibration:
+    """`rec` where it calibrated a sensor; a twin needs one, so a recording none of whose sensors could be
+    calibrated is refused with each sensor's reason (what `rig calibrate --from` writes under not_calibrated)."""
+    if rec.sensors:
+        return rec
+    reasons = "; ".join(f"{sensor}: {why}" for sensor, why in rec.refused.items()) or "no sensor to calibrate"
+    raise NothingCalibrated(f"{session.source}: no sensor of this recording could be calibrated, so it has no twin "
+                           f"to compare with ({reasons})")

@@ -101,6 +101,7 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
     """A recording without a turntable against its twin: named causes as findings, the rest unexplained."""
     from procedures.twin.analysis import analyse_twin
     from procedures.twin.gyroless import analyse_gyroless_twin
+    from procedures.twin.model import NothingCalibrated
     from rig.errors import RigError
     from rig.io.atomic import write_text_atomic
 
@@ -114,6 +115,9 @@ def _recording(session, session_dir: Path, json_out: Path, report_dir: Path | No
             warnings.simplefilter("ignore", RuntimeWarning)
             twin = (analyse_twin(session, replicas=replicas, heldout=heldout) if "gyro" in session.raw
                     else analyse_gyroless_twin(session, replicas=replicas))
+    except NothingCalibrated as exc:
+        click.echo(f"NOT analysed: {plain(str(exc))}; nothing is claimed about the data", err=True)
+        sys.exit(Exit.FAIL)
     except RigError as exc:
         raise command_error(exc, prefix=f"{session_dir}: ") from None
     except (ValueError, ArithmeticError) as exc:

@@ -220,3 +220,18 @@ def test_a_factory_calibrated_unit_moved_fast_is_calibrated_truthfully_or_told_w
             assert off.max() < 3, (sensor, off.round(1))
         else:
             assert cal["not_calibrated"][sensor], (sensor, cal.get("not_calibrated"))
+
+
+def test_the_fast_moved_units_twin_runs_or_says_for_each_sensor_why_not(tmp_path):
+    """`rig discrepancy` on the same log: a twin needs a calibrated sensor, so it either compares the recording with
+    its replicas or, where no sensor calibrates, says for each sensor why (as `calibrate --from` does) and claims
+    nothing: exit 0 or 1, never a fault."""
+    session = tmp_path / "s"
+    done = rig("import", "csv", str(FUSION / "sensor_data.csv"), *FUSION_IMPORT, "--out", str(session))
+    assert done.returncode == 0, done.stderr
+    done = rig("discrepancy", str(session), "--json", str(tmp_path / "d.json"), "--replicas", "20", timeout=300)
+    assert done.returncode in (0, 1), (done.returncode, done.stderr)
+    assert "Traceback" not in done.stderr + done.stdout
+    if not (tmp_path / "d.json").exists():
+        assert done.returncode == 1 and "nothing is claimed" in done.stderr, done.stderr
+        assert all(f"{sensor}: " in done.stderr for sensor in ("accel", "gyro", "mag")), done.stderr
