@@ -13,6 +13,7 @@ from rig.chamber import ChamberAlarm, ChamberLink, CommunicationError, SetPointN
 from rig.cli import main
 from rig.clock import RealClock, SimClock
 from rig.exits import Exit
+from rig.locks import chamber_lock
 from rig.modbus.errors import CommunicationError as LinkCommunicationError
 
 
@@ -108,3 +109,13 @@ def test_cli_status_set_stop_against_a_served_chamber_and_the_lock():
         out = cli(server.url, "stop")
         assert out.exit_code == 0, out.output
         assert not chamber.state.running and chamber.state.set_point == pytest.approx(23.0)
+
+
+def test_a_chamber_held_by_another_command_is_busy_but_can_always_be_stopped():
+    chamber = FakeChamber(RealClock())
+    with ChamberServer(chamber) as server, chamber_lock(server.url):
+        out = cli(server.url, "set", "--c", "30")
+        assert out.exit_code == Exit.BUSY == 4, out.output
+        assert "chamber 127.0.0.1:" in out.output and not chamber.state.running
+        assert cli(server.url, "stop").exit_code == 0
+        assert cli(server.url, "status").exit_code == 0
