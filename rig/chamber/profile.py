@@ -148,7 +148,8 @@ def _addresses(label: str, table_name: str, table: dict[str, Any], required: tup
     out = {}
     for key, value in table.items():
         if key not in required + optional:
-            raise ProfileError(label, f"{table_name}.{key}", f"unknown register; known: {', '.join(required + optional)}")
+            raise ProfileError(label, f"{table_name}.{key}",
+                               f"unknown register; known: {', '.join(required + optional)}")
         if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 0xFFFE:
             raise ProfileError(label, f"{table_name}.{key}", f"must be a register address 0..65534, got {value!r}")
         out[key] = value

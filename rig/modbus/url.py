@@ -1,8 +1,8 @@
 """Link URLs: which transport, where, and with what serial settings.
 
 `tcp://HOST:PORT` is Modbus TCP; `rtu:///dev/ttyUSB0?baud=115200&parity=N&stopbits=1&bytesize=8` is RTU
-on a serial port through pyserial; `rtu+socket://HOST:PORT` is RTU framing over TCP (serial-to-Ethernet gateways; the fake devices serve it
-too, so the tests exercise the RTU framing).
+on a serial port through pyserial; `rtu+socket://HOST:PORT` is RTU framing over TCP (serial-to-Ethernet
+gateways; the fake devices serve it too, so the tests exercise the RTU framing).
 """
 
 from __future__ import annotations

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from rig.errors import RigError
 from rig.modbus import errors as link
-from rig.modbus.errors import MODBUS_EXCEPTION_NAMES, exception_label  # noqa: F401 - part of this module's API
 
 
 class TurntableError(RigError):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from rig.modbus.url import SCHEMES, SERIAL_DEFAULTS, LinkAddress  # noqa: F401 - this module's API
+from rig.modbus.url import LinkAddress
 from rig.modbus.url import parse_url as parse_link_url
 
 
