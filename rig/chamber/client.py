@@ -164,9 +164,12 @@ class ChamberLink:
         self._write_word("RUN", self.profile.values["RUN"]["ON"])
 
     def stop(self) -> None:
-        """Leave the chamber safe: set point back to ambient, then conditioning off (module docstring)."""
-        self._write_float("SET_POINT", self._from_c(self.profile.ambient_c))
-        self._write_word("RUN", self.profile.values["RUN"]["OFF"])
+        """Leave the chamber safe: set point back to ambient, then conditioning off (module docstring); the
+        conditioning is switched off even when the set point is refused."""
+        try:
+            self._write_float("SET_POINT", self._from_c(self.profile.ambient_c))
+        finally:
+            self._write_word("RUN", self.profile.values["RUN"]["OFF"])
 
     def make_safe(self) -> None:
         """`stop()` that never raises (it runs in `finally` paths); a link that is down is logged."""

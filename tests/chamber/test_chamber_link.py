@@ -68,3 +68,17 @@ def test_a_device_that_is_not_an_f4t_or_reports_failure_is_refused():
         chamber.faults.reply_exception(2, address=90)
         with pytest.raises(IdentityError, match="ILLEGAL_DATA_ADDRESS"):
             ChamberLink(server.url, clock=clock).connect()
+
+
+def test_stop_switches_the_conditioning_off_even_when_the_set_point_is_refused():
+    clock = SimClock()
+    chamber = FakeChamber(clock)
+    with ChamberServer(chamber) as server:
+        link = ChamberLink(server.url, clock=clock).connect()
+        link.set_point(70.0)
+        link.run()
+        chamber.faults.reply_exception(4, address=2782)
+        with pytest.raises(ChamberError, match="SET_POINT=23.0 refused"):
+            link.stop()
+        link.close()
+    assert not chamber.state.running and chamber.state.set_point == pytest.approx(70.0)
