@@ -18,6 +18,7 @@ from rig.report.limits import LimitsError, validate_limits
 from rig.io.text_file import read_utf8
 from rig.rotations import TableGeometry
 from rig.sim_faults import SimFaults, checked_sim_faults, is_finite_number
+from rig.chamber.profile import load_profile as load_chamber_profile
 from rig.turntable.profile import load_profile
 
 BOARDS = tuple(BOARD_SPECS)
@@ -35,6 +36,18 @@ class TurntableConfig:
     settle_s: float = 0.3
     poll_every: int = 10               # encoder/status poll every N sample ticks during moves
     watchdog_ms: int = 2000            # the table stops by itself if the rig goes quiet this long (0: off)
+
+
+@dataclass
+class ChamberConfig:
+    """[chamber]: the thermal chamber's controller (docs/reference/configuration.md, docs/guides/chamber.md)."""
+    url: str = "tcp://127.0.0.1:502"
+    profile: str | None = None         # chamber register profile; default: the packaged Watlow F4T one
+    tolerance_c: float = 0.5           # the air is at its set point within this
+    soak_timeout_s: float = 3600.0     # a set point not reached in this long is a fault
+    ramp_c_per_min: float = 2.0        # 0: set points step
+    timeout_s: float = 1.0             # per Modbus request
+    poll_s: float = 2.0                # between readings of the air while waiting
 
 
 @dataclass
@@ -63,6 +76,7 @@ class RigConfig:
     chips: dict = field(default_factory=dict)      # [chips]: buses and per-part overrides of the board's placements
     sim: dict = field(default_factory=dict)        # [sim]: which parts are emulated ("fake") or real
     store: dict = field(default_factory=dict)      # [store] url (the lab's store), rig (this rig's name in it)
+    chamber: ChamberConfig | None = None           # [chamber]; None: no chamber on this rig
     source: str = "<defaults>"
 
     def to_dict(self) -> dict:
@@ -95,7 +109,22 @@ def load_config(path: str | Path | None = None) -> RigConfig:
         except ValueError as e:
             raise ValueError(f"{where}: [turntable] profile = {profile!r} (a path relative to this configuration): "
                              f"{e}") from None
+    _check_chamber_profile(config, path, where)
     return config
+
+
+def _check_chamber_profile(config: RigConfig, path: str | Path | None, where: str) -> None:
+    """[chamber] profile, resolved beside the configuration and read now, as the turntable's is."""
+    profile = config.chamber.profile if config.chamber is not None else None
+    if not profile:
+        return
+    if path is not None and not Path(profile).is_absolute():
+        config.chamber.profile = str(Path(path).parent / profile)
+    try:
+        load_chamber_profile(config.chamber.profile)
+    except ValueError as e:
+        raise ValueError(f"{where}: [chamber] profile = {profile!r} (a path relative to this configuration): "
+                         f"{e}") from None
 
 
 @dataclass(frozen=True)
@@ -122,7 +151,8 @@ SECTIONS = {"unit": ("serial", "board", "operator"),
             "table": ("outer_axis_world", "inner_axis_fixture", "outer_zero_deg", "inner_zero_deg"),
             "environment": ("gravity_mps2", "field_uT"),
             "turntable": None, "schedule": None, "limits": None, "chips": None,
-            "sim": ("chips", "turntable", "table_link", "faults", *SIM_WORLD_KEYS), "store": ("url", "rig")}
+            "sim": ("chips", "turntable", "table_link", "faults", *SIM_WORLD_KEYS), "store": ("url", "rig"),
+            "chamber": None}
 
 
 def _check_keys(raw: dict, where: str) -> None:
@@ -186,6 +216,11 @@ RANGES = {  # (section, key): (lowest, highest, why)
     ("turntable", "settle_s"): (0.0, 60.0, "seconds in position before a hold"),
     ("turntable", "poll_every"): (1, 10000, "sample ticks between status polls during moves"),
     ("turntable", "watchdog_ms"): (0, 65535, "ms; 0: off"),
+    ("chamber", "tolerance_c"): (0.01, 20.0, "C"),
+    ("chamber", "soak_timeout_s"): (1.0, 86400.0, "seconds"),
+    ("chamber", "ramp_c_per_min"): (0.0, 100.0, "C/min; 0: step"),
+    ("chamber", "timeout_s"): (0.01, 600.0, "seconds per request"),
+    ("chamber", "poll_s"): (0.01, 600.0, "seconds"),
 }
 
 
@@ -234,6 +269,7 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
                     field_uT=_positive(env, "field_uT", 50.0, where),
                     limits=dict(raw.get("limits", {})), chips=dict(raw.get("chips", {})),
                     sim=dict(raw.get("sim", {})), store=dict(raw.get("store", {})), source=where)
+    cfg.chamber = _section(raw, "chamber", ChamberConfig, where) if "chamber" in raw else None
     for key, value in cfg.store.items():
         if not isinstance(value, str) or not value:
             raise ValueError(f"{where}: [store] {key} = {value!r} must be a non-empty string")
@@ -280,7 +316,8 @@ def config_from_dict(d: dict) -> RigConfig:
                      turntable=TurntableConfig(**d.get("turntable", {})), geometry=geometry,
                      schedule=ScheduleConfig(**d.get("schedule", {})), gravity_mps2=d.get("gravity_mps2", 9.80665),
                      field_uT=d.get("field_uT", 50.0), limits=d.get("limits", {}), chips=d.get("chips", {}),
-                     sim=d.get("sim", {}), store=d.get("store", {}), source=d.get("source", "<session metadata>"))
+                     sim=d.get("sim", {}), store=d.get("store", {}), source=d.get("source", "<session metadata>"),
+                     chamber=ChamberConfig(**d["chamber"]) if d.get("chamber") else None)
 
 
 def check_sim(board: str, sim: dict) -> None:

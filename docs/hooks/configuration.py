@@ -37,6 +37,7 @@ MEANINGS = {
     ("turntable", "profile"): "the table's register map, a TOML file (a path relative to this configuration); "
                               "default: the packaged `tt-map/1`",
     ("turntable", "speed_dps"): "the speed of every move, deg/s",
+    ("chamber", "url"): "the chamber controller's line, in the form of the table's `url`",
     ("turntable", "accel_dps2"): "the acceleration and deceleration of every move, deg/s^2",
     ("turntable", "tolerance_deg"): "the in-position window: how close to its target an axis must be, deg",
     ("turntable", "settle_s"): "time in position before a hold starts, s (with emulated chips following a real "
@@ -208,6 +209,13 @@ def generate() -> str:
     rendered.add("turntable")
     parts += ["## `[turntable]`", "", "The table and its moves (`rig.config.TurntableConfig`).", ""]
     parts += _table(dataclass_rows("turntable", cfg.TurntableConfig)) + [""]
+
+    # [chamber]
+    rendered.add("chamber")
+    parts += ["## `[chamber]`", "", "The thermal chamber's controller (`rig.config.ChamberConfig`); without the "
+              "section the rig has no chamber. Its profile is a chamber register profile "
+              "([chamber map](chamber-map.md), [guide](../guides/chamber.md)).", ""]
+    parts += _table(dataclass_rows("chamber", cfg.ChamberConfig)) + [""]
 
     # [table]
     rendered.add("table")
