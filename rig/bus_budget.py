@@ -36,6 +36,7 @@ SPI_FRAME_OVERHEAD_S = 1.0e-6
 I2C_BITS_PER_BYTE = 9
 I2C_CONDITION_PERIODS = 1           # START, repeated START, STOP: one SCL period each
 AUX_EVERY = 10                      # temperature and supply every N ticks (procedures.acquisition.Sampler default)
+WARM_UP_TICKS = 50                  # ticks read before the traffic of one must repeat (board_reads)
 SELECT_BYTES = 1                    # a switch select: the address and one control byte
 
 
@@ -264,11 +265,14 @@ def bus_names(chips: dict) -> tuple[str, str]:
 def board_reads(board: SensorBoard, log: TrafficLog, *, mag_every: int, aux_every: int = AUX_EVERY,
                 settle: Callable[[], None] | None = None) -> list[TickRead]:
     """Each sensor's per-sample transfers and the temperature/supply reads of a started `board` whose buses log
-    into `log`, the way the sampler reads them (first poll ready). `settle()` runs before each (let a sample come)."""
-    reads = []
+    into `log`, the way the sampler reads them (its first poll finds the sample ready).
+
+    The board is read tick after tick, `settle()` (one tick period passing) before each, until a tick costs what
+    the one before it did (at most WARM_UP_TICKS): a chip read from its FIFO drains what came since its last read,
+    the backlog of its start-up first, so only a steady tick shows the cost a session pays (one drain for both the
+    accelerometer and the gyroscope of an LSM6DSO)."""
+    actions = []
     for name, triad in board.triads.items():
-        if settle is not None:
-            settle()
         if isinstance(triad, ReadsWhenReady):
             action = triad.read_if_ready
         elif isinstance(triad, DataReady):
@@ -277,13 +281,20 @@ def board_reads(board: SensorBoard, log: TrafficLog, *, mag_every: int, aux_ever
                 triad.read_raw()
         else:
             action = triad.read_raw
-        reads.append(TickRead(name, mag_every if name == "mag" else 1, log.during(action)))
+        actions.append((name, mag_every if name == "mag" else 1, action))
 
     def aux() -> None:
         board.read_temperature()
         board.read_supply()
 
-    reads.append(TickRead("temperature/supply", aux_every, log.during(aux)))
+    actions.append(("temperature/supply", aux_every, aux))
+    reads: list[TickRead] = []
+    for _ in range(WARM_UP_TICKS):
+        if settle is not None:
+            settle()
+        before, reads = reads, [TickRead(name, every, log.during(action)) for name, every, action in actions]
+        if reads == before:
+            break
     return reads
 
 
