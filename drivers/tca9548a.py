@@ -26,7 +26,7 @@ RESET_PULSE_S = 1e-6          # the kernel's pulse; the datasheet's t_W(L) minim
 
 
 class TCA9548A:
-    """The switch at `address` on `bus` (an smbus2.SMBus-like object, never a MuxChannel of another switch here).
+    """The switch at `address` on `bus` (an smbus2.SMBus-like object).
 
     `reset_line(level)` drives the RESET pin (0 = asserted) when the board wires it; `selects` counts the control
     writes `select` made (what the bus budget charges per change of channel).

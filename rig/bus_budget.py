@@ -30,6 +30,7 @@ from dataclasses import dataclass, replace
 from typing import Any, Callable, Iterable, Sequence
 
 from drivers.contract import DataReady, ReadsWhenReady, Wiring
+from drivers.errors import DriverError
 from rig.board import SensorBoard, build_board, i2c_clock_hz
 
 SPI_FRAME_OVERHEAD_S = 1.0e-6
@@ -116,11 +117,12 @@ class TrafficLog:
         self.entries.append((bus, transfer))
 
     def during(self, action: Callable[[], Any]) -> tuple[tuple[str, I2CTransfer | SpiFrame], ...]:
-        """The transfers `action()` makes (a driver error still leaves its transfers counted)."""
+        """The transfers `action()` makes; a driver error (a sample not ready, saturated) leaves them counted, as
+        the sampler's retry would pay them too."""
         start = len(self.entries)
         try:
             action()
-        except Exception:   # noqa: BLE001 - counting what was put on the wire, whatever the chip answered
+        except DriverError:
             pass
         return tuple(self.entries[start:])
 
@@ -192,7 +194,7 @@ class CountingI2C:
         return self.bus.write_i2c_block_data(a, register, data, force)
 
     def i2c_rdwr(self, *msgs: Any) -> None:
-        """One combined transaction; logged per address change as the wire carries it (one START ... STOP)."""
+        """One combined transaction (one START ... STOP, a repeated START between messages): one transfer."""
         if msgs:
             self.log.add(self.name, I2CTransfer(msgs[0].addr, tuple((bool(m.flags & 1), m.len) for m in msgs)))
         return self.bus.i2c_rdwr(*msgs)
@@ -203,8 +205,6 @@ class CountingI2C:
 
 class CountingSpi:
     """A spidev.SpiDev-like wrapper that logs each chip-select frame, then delegates to `spi`."""
-
-    _OWN = ("spi", "log", "name")
 
     def __init__(self, spi: Any, log: TrafficLog, name: str = "SPI bus") -> None:
         object.__setattr__(self, "spi", spi)

@@ -8,6 +8,7 @@ simulated units' unless `--noise-from SESSION` names a session of the unit (its 
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -182,7 +183,7 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
         doc = {"plan": chosen.to_dict(), "default": default.to_dict(), "noise": noise.sigma,
                "noise_source": noise.source, "planning_s": round(planning_s, 3), "observability": problems,
                "bus_load": [{"bus": x.bus, "worst_tick_s": x.worst_tick_s, "mean_tick_s": x.seconds_per_tick,
-                             "transfers": x.transfers, "bytes": x.bytes, "max_rate_hz": x.max_rate_hz()}
+                             "transfers": x.transfers, "bytes": x.bytes, "max_rate_hz": x.max_rate_hz() if math.isfinite(x.max_rate_hz()) else None}
                             for x in loads],
                "units_per_hour": per_hour}
         try:

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from drivers import HMC5843, ITG3200
+from drivers.tca9548a import TCA9548A, MuxChannel
 from fixtures.buses import FakeSMBus
 from fixtures.chips import ITG3200Emulator
 from fixtures.chips.hmc5843 import HMC5843Emulator
@@ -171,3 +172,33 @@ def test_prediction_within_20_percent_of_a_sampler_run(tmp_path, board):
     for load in predicted:
         got = wire_seconds(measured.get(load.bus, []), 100e3) / ticks
         assert got == pytest.approx(load.seconds_per_tick, rel=0.2), load.bus
+
+
+def test_select_accounting_matches_the_wire_behind_a_real_switch():
+    """Two gyros at 0x68 behind the emulated switch, read through MuxChannel: the budget (reads counted above
+    the channel, selects added per change) against every transfer the upstream bus carried."""
+    clock = SimClock()
+    bus = FakeSMBus(1)
+    switch = FakeTCA9548A().attach_to(bus, 0x70)
+    for ch in (0, 1):
+        switch.downstream(ch).attach(0x68, ITG3200Emulator(ConstantSource(np.zeros(3)), clock))
+    wire, per_read = TrafficLog(), TrafficLog()
+    upstream = CountingI2C(bus, wire, "I2C bus 1")
+    mux = TCA9548A(upstream, 0x70)
+    gyros = [ITG3200(CountingI2C(MuxChannel(upstream, mux, ch), per_read, "I2C bus 1"), sleep=clock.sleep)
+             for ch in (0, 1)]
+    for g in gyros:
+        g.start()
+    clock.sleep(0.01)
+    reads = [("I2C bus 1", TickRead(f"gyro{ch}", 1, per_read.during(g.read_if_ready)), ch)
+             for ch, g in enumerate(gyros)]
+    (load,) = tick_loads(reads)
+    start = len(wire.entries)
+    ticks = 50
+    for _ in range(ticks):
+        clock.sleep(0.01)
+        for g in gyros:
+            g.read_if_ready()
+    measured = wire_seconds(wire.entries[start:], 100e3) / ticks
+    assert measured == pytest.approx(load.seconds_per_tick, rel=1e-6)
+    assert load.seconds_per_tick == pytest.approx(2 * (ITG_BURST + SELECT) / 100e3, rel=1e-9)
