@@ -121,6 +121,13 @@ def bus_loads(config):
     return loads
 
 
+def load_doc(load) -> dict:
+    """A bus's load for the --json document (no Infinity: JSON has none)."""
+    top = load.max_rate_hz()
+    return {"bus": load.bus, "worst_tick_s": load.worst_tick_s, "mean_tick_s": load.seconds_per_tick,
+            "transfers": load.transfers, "bytes": load.bytes, "max_rate_hz": top if math.isfinite(top) else None}
+
+
 def predicted_lines(plan, default=None) -> list[str]:
     out = []
     for name, p in plan.predicted.items():
@@ -182,9 +189,7 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
     if json_out is not None:
         doc = {"plan": chosen.to_dict(), "default": default.to_dict(), "noise": noise.sigma,
                "noise_source": noise.source, "planning_s": round(planning_s, 3), "observability": problems,
-               "bus_load": [{"bus": x.bus, "worst_tick_s": x.worst_tick_s, "mean_tick_s": x.seconds_per_tick,
-                             "transfers": x.transfers, "bytes": x.bytes, "max_rate_hz": x.max_rate_hz() if math.isfinite(x.max_rate_hz()) else None}
-                            for x in loads],
+               "bus_load": [load_doc(x) for x in loads],
                "units_per_hour": per_hour}
         try:
             json_out.write_text(json.dumps(doc, indent=2) + "\n")

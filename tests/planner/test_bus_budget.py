@@ -21,7 +21,7 @@ from fixtures.sources import ConstantSource
 from procedures.acquisition import Sampler
 from rig import bus_budget
 from rig.board import build_board
-from rig.bus_budget import (AUX_EVERY, CountingI2C, I2CTransfer, SpiFrame, TickRead, TrafficLog, board_reads,
+from rig.bus_budget import (AUX_EVERY, CountingI2C, I2CTransfer, SpiFrame, TickRead, TrafficLog,
                             counting_wiring, refusal, tick_budget, tick_loads)
 from rig.clock import SimClock
 from rig.commands.plan import StillWorld
