@@ -60,6 +60,7 @@ class ScheduleConfig:
     sequential: bool = False           # sequential holds (procedures.hold_quality.HoldTarget)
     hold_min_s: float = 1.5            # their shortest hold (bump detection judges three 0.5 s windows)
     hold_max_s: float = 0.0            # their longest; 0: three times hold_s
+    mount_s: float = 300.0             # seconds to take a session's units off the table and mount the next ones
 
 
 @dataclass
@@ -210,6 +211,7 @@ RANGES = {  # (section, key): (lowest, highest, why)
     ("schedule", "max_hold_attempts"): (1, 100, "tries of a hold that shows motion"),
     ("schedule", "hold_min_s"): (0.0, 3600.0, "seconds"),
     ("schedule", "hold_max_s"): (0.0, 36000.0, "seconds; 0: three times hold_s"),
+    ("schedule", "mount_s"): (0.0, 86400.0, "seconds between sessions to swap units"),
     ("turntable", "speed_dps"): (0.1, 10000.0, "deg/s"),
     ("turntable", "accel_dps2"): (0.1, 1e6, "deg/s^2"),
     ("turntable", "tolerance_deg"): (1e-6, 1.0, "the in-position window, deg"),
