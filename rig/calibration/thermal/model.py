@@ -34,6 +34,14 @@ class TemperatureOutOfRange(InputError):
                          "outside the temperatures it was fitted at")
 
 
+class TemperatureModelFormatError(ValueError):
+    """A `temperature_model` object breaks its format; `key` is the sub-key of the first thing wrong."""
+
+    def __init__(self, key: str, message: str) -> None:
+        self.key, self.message = key, message
+        super().__init__(f"{key}: {message}")
+
+
 @dataclass
 class ThermalStep:
     """One temperature step of a thermal session: the die temperature of its holds (mean, and the deviation
@@ -100,22 +108,21 @@ class ThermalModel:
 
     @classmethod
     def from_json_dict(cls, sensor: str, d: dict) -> "ThermalModel":
-        """Read the key back; a `ValueError` names the sub-key of the first thing wrong (relative to the
-        temperature_model object)."""
+        """Read the key back; a `TemperatureModelFormatError` names the sub-key of the first thing wrong."""
         if not isinstance(d, dict):
-            raise ValueError("(object) must be an object")
+            raise TemperatureModelFormatError("temperature_model", "must be an object")
         version = d.get("format_version")
         if version != FORMAT_VERSION:
-            raise ValueError(f"format_version: this reader knows {FORMAT_VERSION}, got {version!r}")
+            raise TemperatureModelFormatError("format_version", f"this reader knows {FORMAT_VERSION}, got {version!r}")
         ref = _finite(d.get("reference_c"), "reference_c")
         valid = d.get("valid_c")
         if not (isinstance(valid, list) and len(valid) == 2):
-            raise ValueError(f"valid_c: must be [lowest, highest] in C, got {valid!r}")
+            raise TemperatureModelFormatError("valid_c", f"must be [lowest, highest] in C, got {valid!r}")
         lo, hi = _finite(valid[0], "valid_c"), _finite(valid[1], "valid_c")
         if not lo <= hi:
-            raise ValueError(f"valid_c: lowest {lo} above highest {hi}")
+            raise TemperatureModelFormatError("valid_c", f"lowest {lo} above highest {hi}")
         return cls(sensor=sensor, reference_c=ref, valid_c=(lo, hi), B=_curves_from_json(d.get("B"), 3, "B"),
-                   H=_curves_from_json(d.get("H"), 9, "H"), steps=int(d.get("steps", 0)), format_version=version)
+                   H=_curves_from_json(d.get("H"), 9, "H"), steps=_count(d.get("steps")), format_version=version)
 
 
 def fit_thermal_model(sensor: str, steps: list[ThermalStep], *, orders: dict[str, list[int]] | None = None
@@ -151,18 +158,18 @@ def _curves_json(c: TermCurves) -> dict:
 
 def _curves_from_json(d, terms: int, key: str) -> TermCurves:
     if not isinstance(d, dict):
-        raise ValueError(f"{key}: must be an object with order, coefficients and covariance")
+        raise TemperatureModelFormatError(key, "must be an object with order, coefficients and covariance")
     orders = d.get("order")
     if not (isinstance(orders, list) and len(orders) == terms
             and all(isinstance(p, int) and not isinstance(p, bool) and 0 <= p for p in orders)):
-        raise ValueError(f"{key}.order: must be {terms} non-negative integers, got {orders!r}")
+        raise TemperatureModelFormatError(f"{key}.order", f"must be {terms} non-negative integers, got {orders!r}")
     coeffs = d.get("coefficients")
     if not (isinstance(coeffs, list) and len(coeffs) == terms):
-        raise ValueError(f"{key}.coefficients: must be {terms} lists, one per term")
+        raise TemperatureModelFormatError(f"{key}.coefficients", f"must be {terms} lists, one per term")
     out = []
     for i, (p, c) in enumerate(zip(orders, coeffs)):
         if not (isinstance(c, list) and len(c) == p + 1):
-            raise ValueError(f"{key}.coefficients[{i}]: order {p} needs {p + 1} numbers, got {c!r}")
+            raise TemperatureModelFormatError(f"{key}.coefficients[{i}]", f"order {p} needs {p + 1} numbers, got {c!r}")
         out.append(np.array([_finite(x, f"{key}.coefficients[{i}]") for x in c]))
     q = sum(p + 1 for p in orders)
     try:
@@ -170,13 +177,17 @@ def _curves_from_json(d, terms: int, key: str) -> TermCurves:
     except (TypeError, ValueError):
         cov = None
     if cov is None or cov.shape != (q, q) or not np.isfinite(cov).all():
-        raise ValueError(f"{key}.covariance: must be a {q}x{q} matrix of numbers (all coefficients, in term order)")
+        raise TemperatureModelFormatError(f"{key}.covariance", f"must be a {q}x{q} matrix of numbers (all coefficients, in term order)")
     if (np.diag(cov) < 0).any():
-        raise ValueError(f"{key}.covariance: a variance is negative")
+        raise TemperatureModelFormatError(f"{key}.covariance", "a variance is negative")
     return TermCurves(orders=list(orders), coefficients=out, covariance=cov)
 
 
 def _finite(x, key: str) -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float)) or not np.isfinite(x):
-        raise ValueError(f"{key}: must be a finite number, got {x!r}")
+        raise TemperatureModelFormatError(key, f"must be a finite number, got {x!r}")
     return float(x)
+
+
+def _count(x) -> int:
+    return x if isinstance(x, int) and not isinstance(x, bool) and x >= 0 else 0

@@ -7,11 +7,11 @@ say).
 
 Order: leave-one-temperature-out. Each interior step (never the coldest or the hottest: the model is never used
 outside the steps' range, so the test is interpolation, as its use is) is held out in turn, the term is fitted
-to the others at order p, and the held-out value predicted; its standardised error is
-`r^2 = (z_k - z_hat_k)^2 / var z_k` (weighted PRESS), whose mean over the held-out steps is the order's score
-(1 + var z_hat_k / var z_k for an order that can follow the curve, so a needless order pays for the variance it
-adds to its predictions; more for one that cannot follow) and whose standard error is the scatter of the r^2
-over sqrt(n). Parsimony: the lowest order whose score, less its own standard error,
+to the others at order p, and the held-out value predicted; its standardised predictive error is
+`r^2 = (z_k - z_hat_k)^2 / (var z_k + var z_hat_k)`, whose mean over the held-out steps is the order's score
+(about 1 for every order that can follow the curve, more for one that cannot: a curve left out shows as
+misfit in units of what the prediction says it can know) and whose standard error is the scatter of the r^2
+over sqrt(n). A group of terms that share one order (H's three scales) pools its r^2. Parsimony: the lowest order whose score, less its own standard error,
 is no worse than the best score.
 """
 
@@ -79,8 +79,8 @@ def choose_order(dt: np.ndarray, z: np.ndarray, var: np.ndarray, highest: int | 
             keep = np.arange(n) != k
             a = design(dt[k], p)[0]
             for i in range(z.shape[1]):
-                theta, _ = wls(dt[keep], z[keep, i], var[keep, i], p)
-                r2.append((z[k, i] - a @ theta) ** 2 / var[k, i])
+                theta, cov = wls(dt[keep], z[keep, i], var[keep, i], p)
+                r2.append((z[k, i] - a @ theta) ** 2 / (var[k, i] + a @ cov @ a))
         r2 = np.asarray(r2)
         scores.append(float(np.mean(r2)))
         ses.append(float(np.std(r2, ddof=1) / np.sqrt(r2.size)) if r2.size > 1 else float("inf"))
