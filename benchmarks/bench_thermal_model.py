@@ -73,7 +73,8 @@ def main() -> None:
             figures[f"{sensor}_{m}_scale_ppm"] = round(float(overall[m][1]), 1)
             figures[f"{sensor}_{m}_output_{unit}"] = round(float(overall[m][2]), 4)
         for i, what in enumerate(("bias", "scale", "output")):
-            figures[f"{sensor}_{what}_ratio_to_true_orders"] = round(float(overall["ours"][i] / overall["true_orders"][i]), 3)
+            ratio = overall["ours"][i] / overall["true_orders"][i]
+            figures[f"{sensor}_{what}_ratio_to_true_orders"] = round(float(ratio), 3)
         per_t = {m: rms(c[m], 0) for m in METHODS}
         figures[f"{sensor}_better_than_peers_output_every_held_out_temperature"] = bool(all(
             np.all(per_t["ours"][:, 2] < per_t[p][:, 2]) for p in ("px4", "ardupilot")))

@@ -71,3 +71,17 @@ def test_a_step_without_deviations_is_refused_naming_it():
         fit_thermal_model("gyro", steps)
     with pytest.raises(ValueError, match="2 or more temperatures"):
         fit_thermal_model("gyro", steps[:1])
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_a_short_session_in_any_order_gives_a_straight_line_at_most(n):
+    """Too few steps for a held-out test beyond a straight line: the model is the line (or less) through them,
+    whatever order the steps come in, and still within its stated deviation of the truth between them."""
+    rng = np.random.default_rng(50 + n)
+    unit = make_unit("gyro", rng, "linear")
+    steps = thermal_steps(unit, rng, np.linspace(0.0, 50.0, n))[::-1]
+    model = fit_thermal_model("gyro", steps)
+    assert max(model.B.orders + model.H.orders) <= 1
+    assert model.valid_c == (min(s.temp_c for s in steps), max(s.temp_c for s in steps))
+    cal = model.calibration_at(25.0)
+    assert np.all(np.abs(cal.B - unit.B(25.0)) < 5 * cal.B_std)

@@ -177,7 +177,8 @@ def _curves_from_json(d, terms: int, key: str) -> TermCurves:
     except (TypeError, ValueError):
         cov = None
     if cov is None or cov.shape != (q, q) or not np.isfinite(cov).all():
-        raise TemperatureModelFormatError(f"{key}.covariance", f"must be a {q}x{q} matrix of numbers (all coefficients, in term order)")
+        raise TemperatureModelFormatError(f"{key}.covariance",
+                                          f"must be a {q}x{q} matrix of numbers (all coefficients, in term order)")
     if (np.diag(cov) < 0).any():
         raise TemperatureModelFormatError(f"{key}.covariance", "a variance is negative")
     return TermCurves(orders=list(orders), coefficients=out, covariance=cov)

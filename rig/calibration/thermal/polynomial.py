@@ -1,18 +1,17 @@
-"""Polynomials in temperature, fitted by generalised least squares, their order chosen by held-out temperatures.
+"""Polynomials in temperature and the choice of their order by held-out temperatures.
 
-Each term (one element of B or of H) is `z(T) = sum_j c_j (T - T_ref)^j`. A fit weights each step by its
-stated variance (Aitken's generalised least squares: theta = (A' W A)^-1 A' W z, cov = (A' W A)^-1, W the
-inverse covariance), scaled by the reduced chi-square where that exceeds 1 (the steps scatter more than they
-say).
+Each term (one element of B or of H) is `z(T) = sum_j c_j (T - T_ref)^j`, fitted here one term at a time by
+weighted least squares over the steps' stated variances (theta = (A' W A)^-1 A' W z, cov = (A' W A)^-1); the
+final fit of a group of terms over the steps' full covariances is curves.py's.
 
 Order: leave-one-temperature-out. Each interior step (never the coldest or the hottest: the model is never used
 outside the steps' range, so the test is interpolation, as its use is) is held out in turn, the term is fitted
 to the others at order p, and the held-out value predicted; its standardised predictive error is
 `r^2 = (z_k - z_hat_k)^2 / (var z_k + var z_hat_k)`, whose mean over the held-out steps is the order's score
-(about 1 for every order that can follow the curve, more for one that cannot: a curve left out shows as
-misfit in units of what the prediction says it can know) and whose standard error is the scatter of the r^2
-over sqrt(n). A group of terms that share one order (H's three scales) pools its r^2. Parsimony: the lowest order whose score, less its own standard error,
-is no worse than the best score.
+(about 1 for every order that can follow the curve, more for one that cannot: a curve left out shows as misfit
+in units of what the prediction says it can know) and whose standard error is the scatter of the r^2 over
+sqrt(n). A group of terms that share one order (H's three scales) pools its r^2. Parsimony: the lowest order
+whose score, less its own standard error, is no worse than the best score.
 """
 
 from __future__ import annotations
