@@ -5,7 +5,8 @@ accelerometer by the joint estimator on simulated hold means, the gyroscope by a
 deviations), its temperature model fitted, and its errors taken at the 6 temperatures halfway between steps:
 bias (mg / mdps), scale (ppm) and the calibrated output at full reference input (1 g / 100 dps, worst axis).
 Figures are RMS over units and held-out temperatures; `*_ratio_to_true_orders` divides ours by the same GLS told
-the true curves' orders (what noise alone leaves). Order selection: the share of B terms given order 1 on
+the true curves' orders (what noise alone leaves); `accel_joint_*` the fit in one piece to the same hold means
+(thermal/joint.py). Order selection: the share of B terms given order 1 on
 linear units, 3 on cubic ones, 0 on units that do not move with temperature.
 """
 
@@ -21,7 +22,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "calibration_thermal"), str(ROOT / "benchmarks")]
 
-from comparison import METHODS, campaign, rms  # noqa: E402
+from comparison import campaign, rms  # noqa: E402
 from thermal_synth import held_out_temps, make_unit, thermal_steps  # noqa: E402
 import stamp  # noqa: E402  (benchmarks/stamp.py)
 
@@ -66,23 +67,23 @@ def main() -> None:
     figures, details = {}, {"units_per_sensor": args.units, "seed": args.seed,
                             "held_out_c": held_out_temps().tolist(), "per_temperature": {}}
     for sensor, unit in UNITS.items():
-        c = campaign(sensor, args.units, args.seed)
-        overall = {m: rms(c[m], (0, 1)) for m in METHODS}
-        for m in METHODS:
+        c = campaign(sensor, args.units, args.seed, with_joint=True)
+        overall = {m: rms(c[m], (0, 1)) for m in c}
+        for m in c:
             figures[f"{sensor}_{m}_bias_{unit}"] = round(float(overall[m][0]), 4)
             figures[f"{sensor}_{m}_scale_ppm"] = round(float(overall[m][1]), 1)
             figures[f"{sensor}_{m}_output_{unit}"] = round(float(overall[m][2]), 4)
         for i, what in enumerate(("bias", "scale", "output")):
             ratio = overall["ours"][i] / overall["true_orders"][i]
             figures[f"{sensor}_{what}_ratio_to_true_orders"] = round(float(ratio), 3)
-        per_t = {m: rms(c[m], 0) for m in METHODS}
+        per_t = {m: rms(c[m], 0) for m in c}
         figures[f"{sensor}_better_than_peers_output_every_held_out_temperature"] = bool(all(
             np.all(per_t["ours"][:, 2] < per_t[p][:, 2]) for p in ("px4", "ardupilot")))
         figures[f"{sensor}_better_than_peers_bias_every_held_out_temperature"] = bool(all(
             np.all(per_t["ours"][:, 0] < per_t[p][:, 0]) for p in ("px4", "ardupilot")))
         details["per_temperature"][sensor] = {m: {"bias": per_t[m][:, 0].round(4).tolist(),
                                                   "scale_ppm": per_t[m][:, 1].round(1).tolist(),
-                                                  "output": per_t[m][:, 2].round(4).tolist()} for m in METHODS}
+                                                  "output": per_t[m][:, 2].round(4).tolist()} for m in c}
         details.update(_order_shares(sensor, max(10, args.units // 3), args.seed + 1))
         figures[f"{sensor}_fit_ms"] = _fit_ms(sensor, 20, args.seed)
     stamp.report(run, figures=figures, details=details, save=args.save)

@@ -19,6 +19,7 @@ from scipy.spatial.transform import Rotation
 
 from rig.calibration.numerics.result import TriadCalibration
 from rig.calibration.thermal import ThermalStep
+from rig.calibration.thermal.joint import ThermalHolds
 from rig.calibration.turntable.joint import calibrate_joint
 
 G = 9.80665
@@ -94,14 +95,9 @@ def make_unit(sensor: str, rng: np.random.Generator, shape: str = "cubic") -> Th
     return ThermalUnit(sensor, B0, b, H0, scale, cross)
 
 
-def step_calibration(unit: ThermalUnit, temp_c: float, R: np.ndarray, rng: np.random.Generator) -> TriadCalibration:
-    """The calibration a short turntable schedule at `temp_c` gives (module docstring)."""
+def gyro_step_calibration(unit: ThermalUnit, temp_c: float, rng: np.random.Generator) -> TriadCalibration:
+    """The gyroscope's calibration at `temp_c`: the Gaussian stand-in of the module docstring."""
     B, H = unit.B(temp_c), unit.H(temp_c)
-    if unit.sensor == "accel":
-        sample_std = ACCEL_SAMPLE_STD_MG * MG * ACCEL_COUNTS_PER_MPS2
-        x = np.einsum("kji,j->ki", R, np.array([0.0, 0.0, G]))
-        y = x @ np.linalg.inv(H).T + B + sample_std / np.sqrt(HOLD_SAMPLES) * rng.standard_normal(x.shape)
-        return calibrate_joint(y, R, G, y_std=np.full(y.shape, sample_std), counts=np.full(len(y), HOLD_SAMPLES))
     b_std = np.full(3, GYRO_B_STD_MDPS * MDPS * GYRO_COUNTS_PER_RADS)
     h_std = np.full((3, 3), GYRO_H_STD_PPM * 1e-6 * float(np.mean(np.abs(np.diag(H)))))
     return TriadCalibration(B=B + b_std * rng.standard_normal(3), H=H + h_std * rng.standard_normal((3, 3)),
@@ -109,16 +105,21 @@ def step_calibration(unit: ThermalUnit, temp_c: float, R: np.ndarray, rng: np.ra
                             H_cov=np.diag(h_std.reshape(9) ** 2))
 
 
+def steps_from_holds(holds: list[ThermalHolds]) -> list[ThermalStep]:
+    """Each step's hold means calibrated by the rig's joint estimator."""
+    return [ThermalStep(temp_c=h.temp_c, calibration=calibrate_joint(h.y_means, h.R, G, y_std=h.y_std,
+                                                                     counts=h.counts), temp_std_c=h.temp_std_c)
+            for h in holds]
+
+
 def thermal_steps(unit: ThermalUnit, rng: np.random.Generator, temps_c=STEPS_C) -> list[ThermalStep]:
-    """One calibration per temperature step, the same 12-pose schedule at each; each step's die temperature is
-    read with TEMP_STD_C of error, and says so."""
-    R = Rotation.random(HOLDS, random_state=rng).as_matrix()
-    steps = []
-    for t in temps_c:
-        cal = step_calibration(unit, float(t), R, rng)
-        steps.append(ThermalStep(temp_c=float(t) + TEMP_STD_C * rng.standard_normal(), calibration=cal,
-                                 temp_std_c=TEMP_STD_C))
-    return steps
+    """One calibration per temperature step (the accelerometer's from its hold means, the same 12-pose schedule
+    at each); each step's die temperature is read with TEMP_STD_C of error, and says so."""
+    if unit.sensor == "accel":
+        return steps_from_holds(accel_holds(unit, rng, temps_c))
+    return [ThermalStep(temp_c=float(t) + TEMP_STD_C * rng.standard_normal(),
+                        calibration=gyro_step_calibration(unit, float(t), rng), temp_std_c=TEMP_STD_C)
+            for t in temps_c]
 
 
 def held_out_temps(temps_c=STEPS_C) -> np.ndarray:
@@ -142,3 +143,19 @@ def errors(unit: ThermalUnit, B_est: np.ndarray, H_est: np.ndarray, temp_c: floa
         y = np.linalg.solve(H, u) + unit.B(temp_c)
         worst = max(worst, float(np.linalg.norm(H_est @ (y - B_est) - u)))
     return {"bias": float(bias), "scale_ppm": float(scale), "output": worst / small}
+
+
+def accel_holds(unit: ThermalUnit, rng: np.random.Generator, temps_c=STEPS_C) -> list[ThermalHolds]:
+    """The accelerometer's hold means at each step (the same 12-pose schedule at each), as the joint fit takes
+    them; the die temperature read with TEMP_STD_C of error."""
+    R = Rotation.random(HOLDS, random_state=rng).as_matrix()
+    sample_std = ACCEL_SAMPLE_STD_MG * MG * ACCEL_COUNTS_PER_MPS2
+    out = []
+    for t in temps_c:
+        x = np.einsum("kji,j->ki", R, np.array([0.0, 0.0, G]))
+        y = x @ np.linalg.inv(unit.H(float(t))).T + unit.B(float(t))
+        y = y + sample_std / np.sqrt(HOLD_SAMPLES) * rng.standard_normal(x.shape)
+        out.append(ThermalHolds(temp_c=float(t) + TEMP_STD_C * rng.standard_normal(), y_means=y, R=R,
+                                y_std=np.full(y.shape, sample_std), counts=np.full(len(y), HOLD_SAMPLES),
+                                temp_std_c=TEMP_STD_C))
+    return out
