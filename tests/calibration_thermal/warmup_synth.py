@@ -19,6 +19,7 @@ from fixtures.world.effects_base import TO_PHYS, Effect
 from fixtures.world.effects.noise import BiasInstability
 from fixtures.world.model import Environment, random_sensor_models
 from fixtures.world.session_sim import NOMINAL, SessionPlan, simulate_session
+from rig.calibration.thermal.warmup import fit_warmup_session, held_out
 
 SPAN_C = 17.5
 THERMOMETER_STEP_C = 1.0 / 340.0
@@ -92,3 +93,16 @@ def true_offset(log: WarmupLog, temp_c) -> np.ndarray:
     """The true offset curve (counts, constant term zero) at temperatures `temp_c`: (n, 3)."""
     x = (np.atleast_1d(np.asarray(temp_c, dtype=float)) - 25.0) / SPAN_C
     return np.stack([x, x ** 2, x ** 3], axis=-1) @ log.curve_counts
+
+
+def campaign(sensor: str, shape: str, seeds: int, seed: int) -> list[dict]:
+    """Per simulated log: the held-out comparison (warmup.held_out), the fit on the whole log, and the truth."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(seeds):
+        log = warmup_log(rng, sensor, shape)
+        s = log.session
+        held = held_out(sensor, s.temp_c, s.raw[sensor], rate_hz=s.sample_rate_hz)
+        fit = fit_warmup_session(s, sensor)
+        out.append({"log": log, "held": held, "fit": fit})
+    return out

@@ -42,6 +42,7 @@ from rig.calibration.thermal.peers import (ARDUPILOT_MIN_SAMPLES, OffsetPolynomi
                                            ardupilot_offset_fit, px4_offset_fit)
 from rig.errors import InputError
 from rig.noise.allan import allan_deviation
+from rig.noise.still import STILL_RATIO, stillness_ratio
 from rig.session_data import SessionData
 
 BANDS = 16
@@ -171,12 +172,31 @@ def fit_warmup_session(session: SessionData, sensor: str, bands: int = BANDS) ->
     """`fit_warmup` on one sensor of a still recording that carries the chip's temperature."""
     if session.temp_c is None:
         raise InputError(f"{session.source}: the recording has no temperature column; a warm-up fit needs the "
-                         "chip's temperature on every row (import with --temp-column)")
+                         "chip's temperature on every row (import with --temp COLUMN)")
     if sensor not in session.raw:
         raise InputError(f"{session.source}: no {sensor!r} in the recording; it has {', '.join(session.raw)}")
-    if np.any(session.is_move):
-        raise InputError(f"{session.source}: the recording has table motion; a warm-up fit needs a still log")
+    moved = _moved_axis(session.temp_c, session.raw[sensor])
+    if moved is not None:
+        raise InputError(f"{session.source}: the {sensor}'s {moved[0]} axis spreads {moved[1]:.0f} times its "
+                         "sample-to-sample noise once its temperature curve is taken out: the unit moved; a warm-up "
+                         "fit needs a still log")
     return fit_warmup(sensor, session.temp_c, session.raw[sensor], bands, session_rate(session))
+
+
+def _moved_axis(temp_c: np.ndarray, y: np.ndarray) -> tuple[str, float] | None:
+    """(axis, ratio) of the first axis whose residual from one cubic in temperature is not still
+    (rig.noise.still: its spread over its sample-to-sample noise above STILL_RATIO); None for a still log."""
+    ok = np.isfinite(temp_c) & np.all(np.isfinite(y), axis=1)
+    if ok.sum() <= PEER_ORDER + 1:
+        return None
+    dt = temp_c[ok] - temp_c[ok].mean()
+    A = np.vander(dt, PEER_ORDER + 1, increasing=True)
+    resid = y[ok] - A @ np.linalg.lstsq(A, y[ok], rcond=None)[0]
+    for k, axis in enumerate("xyz"):
+        ratio = stillness_ratio(resid[:, k])
+        if ratio > STILL_RATIO:
+            return axis, ratio
+    return None
 
 
 def session_rate(session: SessionData) -> float | None:
@@ -189,13 +209,19 @@ def session_rate(session: SessionData) -> float | None:
 
 @dataclass
 class HeldOut:
-    """Per method, its error (left-out bands, 3 axes) at the left-out bands; `floor` the bands' own deviation."""
+    """Per method, its error (left-out bands, 3 axes) at the left-out bands; `floor` the bands' own deviation,
+    `ours_std` the deviation our fit states for its prediction there."""
 
     temps_c: np.ndarray
     errors: dict[str, np.ndarray]
     floor: np.ndarray
+    ours_std: np.ndarray
     orders: list[int]
     skipped: dict[str, str]
+
+    def standardised(self) -> np.ndarray:
+        """Our errors over what the band's and our prediction's deviations together say they can be."""
+        return self.errors["ours"] / np.sqrt(self.floor ** 2 + self.ours_std ** 2)
 
     def rms(self) -> dict[str, np.ndarray]:
         """Per method, the RMS error of each axis over the left-out bands; 'floor' that of their deviations."""
@@ -233,8 +259,9 @@ def held_out(sensor: str, temp_c: np.ndarray, y: np.ndarray, bands: int = BANDS,
         peers["ardupilot"] = ardupilot_offset_fit(bin_T, bin_means, cal.mean, np.eye(3), cal.temp_c)
     else:
         skipped["ardupilot"] = (f"{len(bin_T)} bins of {ARDUPILOT_MIN_SAMPLES} samples and a 0.5 C rise in the "
-                                "training bands (a cubic needs 4): the log does not warm enough for its learning")
+                                 "training bands (a cubic needs 4): the log does not warm enough for its learning")
     for name, peer in peers.items():
         errors[name] = np.stack([peer.B_at(t) for t in T_test]) - Z_test
-    return HeldOut(temps_c=T_test, errors=errors, floor=np.stack([b.std for b in left]),
+    ours_std = np.stack([np.sqrt(np.diag(ours.curves.covariance_at(t - ours.reference_c))) for t in T_test])
+    return HeldOut(temps_c=T_test, errors=errors, floor=np.stack([b.std for b in left]), ours_std=ours_std,
                    orders=list(ours.curves.orders), skipped=skipped)
