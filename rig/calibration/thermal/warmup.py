@@ -13,7 +13,12 @@ script averages in bins of temperature the same way). A band's mean reading is o
 mean is taken from batch means of what is left once the band's own straight line in temperature is taken out
 (the curve moves across a band's width, and would otherwise count as noise): the residuals in time order cut
 into `BATCHES` contiguous batches, var(mean) = var(batch means) / BATCHES, so a wandering bias counts at the
-size it has over the band's time, not as white noise. A band with fewer than `BATCHES * MIN_BATCH_SAMPLES` samples is not used.
+size it has over a batch's time, not as white noise. A bias that wanders more slowly than a batch is under-counted
+that way; with the log's sample rate known, the variance is at least the Allan variance of the log's residual
+stream (its readings less one cubic in temperature through the whole log, in time order) at the band's duration
+(rig.noise.allan; IEEE 952: the Allan variance at tau is half the mean square difference of consecutive
+tau-means, for white noise the variance of one tau-mean, for a wandering bias about the scatter a band's mean
+shows). A band with fewer than `BATCHES * MIN_BATCH_SAMPLES` samples is not used.
 
 Fit: each axis a polynomial in (T - T_ref), T_ref the middle of the used bands' range; its order chosen by
 leaving out each interior band in turn (polynomial.choose_order, the thermal model's own test) and its
