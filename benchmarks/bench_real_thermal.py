@@ -1,4 +1,4 @@
-"""The warm-up fit (rig/calibration/thermal/warmup.py) held out, beside PX4's and ArduPilot's offset fits; prints JSON.
+"""The warm-up fit (rig/noise/thermal_warmup.py) held out, beside PX4's and ArduPilot's offset fits; prints JSON.
 
 No public warming log with a licence that allows copying it into the repository was found (docs/guides/
 temperature.md, "Real data"), so the logs are simulated (tests/calibration_thermal/warmup_synth.py): a board still

@@ -19,7 +19,7 @@ from fixtures.world.effects_base import TO_PHYS, Effect
 from fixtures.world.effects.noise import BiasInstability
 from fixtures.world.model import Environment, random_sensor_models
 from fixtures.world.session_sim import NOMINAL, SessionPlan, simulate_session
-from rig.calibration.thermal.warmup import fit_warmup_session, held_out
+from rig.noise.thermal_warmup import fit_warmup_session, held_out
 
 SPAN_C = 17.5
 THERMOMETER_STEP_C = 1.0 / 340.0

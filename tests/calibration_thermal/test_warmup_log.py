@@ -1,4 +1,4 @@
-"""The warm-up fit (rig/calibration/thermal/warmup.py) on still logs of a board warming, beside PX4's and ArduPilot's.
+"""The warm-up fit (rig/noise/thermal_warmup.py) on still logs of a board warming, beside PX4's and ArduPilot's.
 
 No public warming log whose licence allows copying it here was found (docs/guides/temperature.md, "Real data",
 lists what was searched), so the logs are simulated (warmup_synth: the world's sensor, noise and bias instability,
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from rig.calibration.thermal.model import TemperatureOutOfRange
-from rig.calibration.thermal.warmup import fit_warmup, fit_warmup_session, held_out
+from rig.noise.thermal_warmup import fit_warmup, fit_warmup_session, held_out
 from rig.errors import InputError
 from rig.io.import_csv import import_csv
 
