@@ -30,15 +30,15 @@ DEFAULT_I2C_BUS, DEFAULT_SPI_BUS = 1, 0
 class SlotConfig:
     """One mounting slot: which board sits where on the table and on which buses."""
 
-    name: str
-    board: str
-    serial: str = ""                                   # empty: the configuration names none (simulated: derived)
-    lever_arm_m: tuple[float, float, float] = (0.0, 0.0, 0.0)   # board origin from the rotation centre, fixture frame
-    mount_deg: tuple[float, float, float] | None = None         # board frame in the fixture frame: roll, pitch, yaw
-    i2c_bus: int = DEFAULT_I2C_BUS
-    spi_bus: int = DEFAULT_SPI_BUS
-    mux: tuple[int, int] | None = None                 # (switch address, channel) the slot's I2C parts sit behind
-    chips: Mapping[str, Any] = field(default_factory=dict)     # [slots.chips.<part>] overrides
+    name: str                                          # the slot's name, unique; its session folder's name
+    board: str                                         # the sensor board in this slot (default: [unit] board)
+    serial: str = ""                                   # the unit's serial (simulated and empty: SIM-<seed>-<slot>)
+    lever_arm_m: tuple[float, float, float] = (0.0, 0.0, 0.0)   # board origin from the rotation centre, fixture frame, m
+    mount_deg: tuple[float, float, float] | None = None         # board frame in the fixture frame: roll, pitch, yaw (Rz Ry Rx)
+    i2c_bus: int = DEFAULT_I2C_BUS                     # the slot's I2C bus number (default: [chips] i2c_bus, else 1)
+    spi_bus: int = DEFAULT_SPI_BUS                     # the slot's SPI bus number (default: [chips] spi_bus, else 0)
+    mux: tuple[int, int] | None = None                 # {address, channel} of the switch its I2C parts sit behind
+    chips: Mapping[str, Any] = field(default_factory=dict)     # [slots.chips.<part>] overrides, as [chips.<part>]
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -127,7 +127,7 @@ def _slot(table: dict, index: int, unit_board: str, unit_chips: Mapping, where: 
 
 def _vector(table: dict, key: str, default, limit: float, where: str, allowed: str):
     value = table.get(key, default)
-    if not (isinstance(value, list) and len(value) == 3
+    if not (isinstance(value, (list, tuple)) and len(value) == 3
             and all(not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and abs(v) <= limit
                     for v in value)):
         raise ValueError(f"{where} {key} = {value!r} must be {allowed}")

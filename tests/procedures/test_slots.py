@@ -1,0 +1,222 @@
+"""Several boards on one table (`[[slots]]`): the configuration, the world at a lever arm, one session recording
+every slot into its own calibration, a slot dropped when its chip goes silent, and resuming every slot."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fixtures.motion import TableTrack
+from fixtures.world.model import SensorModel, World
+from procedures.orchestrator import RigSpec, SessionOrchestrator
+from procedures.slot_session import MANIFEST, SlotsOutcome
+from rig.assembly import assemble_slots
+from rig.commands.common import show_slots_outcome
+from rig.config import load_config
+from rig.exits import Exit
+from rig.store import SessionStore
+
+SLOTS = """
+[unit]
+board = "lsm6dso"
+[turntable]
+speed_dps = 120.0
+accel_dps2 = 360.0
+[schedule]
+orientations = {orientations}
+hold_s = {hold_s}
+"""
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(20260)
+
+
+def slot_toml(*slots: str, orientations: int = 9, hold_s: float = 1.5) -> str:
+    return SLOTS.format(orientations=orientations, hold_s=hold_s) + "".join(f"\n[[slots]]\n{s}\n" for s in slots)
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "rig.toml"
+    path.write_text(text)
+    return path
+
+
+# -- configuration ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("slots, says", [
+    (('name = "a"', 'name = "a"\ni2c_bus = 2'), ["#2", "'a'", "unique"]),
+    (('name = "a"', 'name = "b"'), ["[[slots]] b part imu", "[[slots]] a part imu", "address 0x6a"]),
+    (('name = "a"\nlever_arm = [0, 0, 0]',), ["[[slots]] a", "lever_arm"]),
+    (('name = "a/b"',), ["name = 'a/b'", "folder"]),
+    (('name = "a"\nmux = {address = 0x70, channel = 9}',), ["[[slots]] a", "mux channel = 9"]),
+    (('name = "a"\nlever_arm_m = [0.1, 0]',), ["[[slots]] a", "lever_arm_m"]),
+    (('name = "a"\n[slots.chips.imu]\naddres = 0x6b',), ["[[slots]] a", "[slots.chips.imu]", "addres"]),
+    (('name = "a"\nboard = "nope"',), ["[[slots]] a", "board = 'nope'"]),
+    (('name = "a"\nmux = {address = 0x70, channel = 1}', 'name = "b"\nmux = {address = 0x70, channel = 1}'),
+     ["[[slots]] b part imu", "channel 1"]),
+    (('name = "a"\n[slots.chips.imu]\naddress = 0x70', 'name = "b"\ni2c_bus = 2\nmux = {address = 0x70, channel = 1}',
+      'name = "c"\nmux = {address = 0x70, channel = 1}'), ["the switch at 0x70", "[[slots]] a part imu"]),
+])
+def test_a_bad_slot_is_named_with_its_file_and_key(tmp_path, slots, says) -> None:
+    path = write(tmp_path, slot_toml(*slots))
+    with pytest.raises(ValueError) as e:
+        load_config(path)
+    message = str(e.value)
+    assert message.startswith(str(path)), message
+    for part in says:
+        assert part in message, (part, message)
+
+
+def test_slots_behind_switch_channels_or_on_other_buses_are_accepted(tmp_path) -> None:
+    config = load_config(write(tmp_path, slot_toml('name = "a"\nmux = {address = 0x70, channel = 0}',
+                                                   'name = "b"\nmux = {address = 0x70, channel = 1}',
+                                                   'name = "c"\ni2c_bus = 3\n[slots.chips.imu]\naddress = 0x6b')))
+    assert [s.name for s in config.slots] == ["a", "b", "c"]
+    c = config.slot_configs()["c"]
+    assert c.chips["i2c_bus"] == 3 and c.chips["imu"]["address"] == 0x6B and c.slots == ()
+
+
+def test_a_configuration_without_slots_keeps_its_snapshot(tmp_path) -> None:
+    assert "slots" not in load_config(None).to_dict()
+    config = load_config(write(tmp_path, slot_toml('name = "a"', 'name = "b"\ni2c_bus = 2')))
+    assert [s["name"] for s in config.to_dict()["slots"]] == ["a", "b"]
+
+
+# -- the world at a lever arm -------------------------------------------------------------------------------------
+def _ideal_accel() -> dict:
+    return {"accel": SensorModel("accel", np.eye(3), np.zeros(3), 0.0)}
+
+
+def test_a_board_at_a_lever_arm_feels_the_turn(rng) -> None:
+    """Inner axis (fixture z) turning at a steady w: f = R^T g - w^2 r_perp; while it speeds up by a, + a z x r."""
+    r = rng.uniform(-0.1, 0.1, 3)
+    track = TableTrack()
+    accel_dps2, rate_dps = 400.0, 200.0
+    track.axes[1].run_at(0.0, rate_dps, accel_dps2)
+    near = World(track, _ideal_accel(), lever_arm_m=r)
+    centre = World(track, _ideal_accel())
+    w, a = math.radians(rate_dps), math.radians(accel_dps2)
+    steady = rate_dps / accel_dps2 + 0.3
+    d = near.sense("accel", [steady], noise=False)[0] - centre.sense("accel", [steady], noise=False)[0]
+    expected = -w * w * np.array([r[0], r[1], 0.0])
+    assert np.allclose(d, expected, atol=1e-6 * w * w * np.linalg.norm(r) + 1e-9), (d, expected)
+    t = 0.2                                   # speeding up: rate a t
+    d = near.sense("accel", [t], noise=False)[0] - centre.sense("accel", [t], noise=False)[0]
+    wt = a * t
+    expected = np.cross([0, 0, a], r) - wt * wt * np.array([r[0], r[1], 0.0])
+    assert np.allclose(d, expected, atol=1e-4 * np.linalg.norm(expected)), (d, expected)
+
+
+def test_the_emulators_fast_path_senses_the_lever_arm_like_the_model(rng) -> None:
+    r = rng.uniform(-0.1, 0.1, 3)
+    track = TableTrack()
+    track.axes[0].move_to(0.0, 170.0, 120.0, 360.0)
+    track.axes[1].move_to(0.2, -95.0, 90.0, 300.0)
+    world = World(track, _ideal_accel(), lever_arm_m=r)
+    corners = np.array([p.t0 for axis in track.axes for p in axis.pieces])
+    for t in rng.uniform(0.0, 2.0, 50):
+        if np.min(np.abs(corners - t)) < 1e-3:
+            continue
+        fast = np.array(world.sense_floats("accel", float(t)))
+        model = world.sense("accel", [t], noise=False)[0]
+        assert np.allclose(fast, model, atol=1e-6), (t, fast, model)
+
+
+# -- sessions -----------------------------------------------------------------------------------------------------
+class Factory:
+    """`rig.assembly.build_rig` for slots, keeping the rig it built (to reach its emulators)."""
+
+    def __init__(self, on_built=None) -> None:
+        self.rig, self.on_built = None, on_built
+
+    def __call__(self, config, spec):
+        self.rig = assemble_slots(config, simulate=spec.simulated, seed=spec.seed or 0, trial=spec.trial,
+                                  run=spec.run)
+        if self.on_built:
+            self.on_built(self.rig)
+        return self.rig
+
+
+def _lever_arm(folder: Path) -> tuple[np.ndarray, np.ndarray]:
+    extra = json.loads((folder / "calibration.json").read_text())["sensors"]["accel"]
+    return np.array(extra["lever_arm_m"]), np.array(extra["lever_arm_std_m"])
+
+
+def test_one_session_calibrates_every_slot_and_finds_each_lever_arm(tmp_path) -> None:
+    arms = {"a": [0.06, 0.0, 0.0], "b": [-0.03, 0.05, 0.0], "c": [0.0, -0.05, 0.02]}
+    config = load_config(write(tmp_path, slot_toml(
+        *(f'name = "{n}"\ni2c_bus = {k + 1}\nlever_arm_m = {arm}' + ('\nmount_deg = [0, 0, 90]' if n == "b" else "")
+          for k, (n, arm) in enumerate(arms.items())))))
+    out = tmp_path / "out"
+    outcome = SessionOrchestrator(out, Factory(), plots=False).start(config, RigSpec(True, 4))
+    assert isinstance(outcome, SlotsOutcome)
+    manifest = json.loads((out / MANIFEST).read_text())
+    assert [s["serial"] for s in manifest["slots"]] == ["SIM-0004-a", "SIM-0004-b", "SIM-0004-c"]
+    assert manifest["table_time_s"] > 0
+    truths = []
+    for name, arm in arms.items():
+        one = outcome.slots[name]
+        assert one.status == "complete", one.reason
+        r, std = _lever_arm(out / name)
+        assert (np.abs(r - np.array(arm)) <= 3 * std).all(), (name, r, arm, std)
+        with SessionStore.open(out / name) as store:
+            meta = store.metadata
+        assert meta["unit"]["serial"] == f"SIM-0004-{name}"
+        truths.append(np.array(meta["truth"]["sensors"]["accel"]["H"]))
+        assert one.h_error_pct["accel"] < 0.1 and one.h_error_pct["gyro"] < 1.0, one.h_error_pct
+    assert not np.allclose(truths[0], truths[1])          # each slot is a unit of its own
+    lines = []
+    assert show_slots_outcome(outcome, lambda line, err=False: lines.append(line)) == Exit.OK
+    assert sum(line.startswith("slot ") for line in lines) == 3 and any("table time" in line for line in lines)
+
+
+def test_a_silent_slot_is_dropped_and_the_others_are_calibrated(tmp_path) -> None:
+    config = load_config(write(tmp_path, slot_toml('name = "a"', 'name = "b"\ni2c_bus = 2', orientations=10)))
+    factory = Factory()
+    silenced = []
+
+    def progress(k: int, n: int, phase: str) -> None:
+        if k == 4 and phase == "hold" and not silenced:       # b's IMU stops answering before hold 4
+            bus = factory.rig.sim.slots["b"].board.i2c
+            bus.detach(0x6A)
+            silenced.append(k)
+
+    out = tmp_path / "out"
+    outcome = SessionOrchestrator(out, factory, plots=False, progress=progress).start(config, RigSpec(True, 2))
+    assert silenced
+    a, b = outcome.slots["a"], outcome.slots["b"]
+    assert a.status == "complete", a.reason
+    assert b.status == "failed" and "slot b" in b.reason and "imu" not in b.reason.split(":")[0]
+    assert "accel" in b.reason or "gyro" in b.reason
+    assert "not calibrated" in b.reason and 1 <= b.holds <= 4
+    assert not (out / "b" / "calibration.json").exists()
+    with SessionStore.open(out / "b") as store:
+        assert any(e["kind"] == "slot-dropped" for e in store.events())
+        assert store.metadata["status"] == "failed"
+    lines = []
+    assert show_slots_outcome(outcome, lambda line, err=False: lines.append(line)) == Exit.FAIL
+    assert any(line.startswith("slot b: failed") for line in lines), lines
+
+
+def test_resume_continues_every_slot_from_the_last_orientation_all_recorded(tmp_path) -> None:
+    config = load_config(write(tmp_path, slot_toml('name = "a"', 'name = "b"\ni2c_bus = 2', orientations=10)))
+
+    def stop(k: int, n: int, phase: str) -> None:
+        if k == 5 and phase == "move":
+            raise KeyboardInterrupt
+
+    out = tmp_path / "out"
+    first = SessionOrchestrator(out, Factory(), plots=False, progress=stop).start(config, RigSpec(True, 6))
+    assert {o.status for o in first.slots.values()} == {"aborted"}
+    assert all(o.holds == 5 for o in first.slots.values())
+    done = SessionOrchestrator(out, Factory(), plots=False).resume()
+    for name in ("a", "b"):
+        assert done.slots[name].status == "complete", done.slots[name].reason
+        with SessionStore.open(out / name) as store:
+            assert store.completed_holds() == list(range(10))
+            assert len(store.metadata["resumes"]) == 1
