@@ -234,8 +234,10 @@ class SessionOrchestrator:
                     folder = self.folder / slot.name
                     folder.mkdir(exist_ok=True)
                     held.enter_context(session_lock(folder))
-                    stores[slot.name] = held.enter_context(
-                        SessionStore.create(folder, self._slot_metadata(rig, slot, schedule, spec, plan)))
+                    meta = self._slot_metadata(rig, slot, schedule, spec, plan)
+                    stores[slot.name] = held.enter_context(SessionStore.create(folder, meta))
+                    if "truth" in meta:
+                        write_json(folder / "truth.json", meta["truth"])
                 write_json(self.folder / MANIFEST, new_manifest(config, spec, rig.configs))
                 outcomes = self._record_slots(rig, board, stores, schedule, 0, resumed=False)
             return self._finish_slots(stores, len(schedule), outcomes)
