@@ -64,6 +64,7 @@ def main() -> None:
     config = configuration(args.orientations, args.hold_s, args.slots)
     names = [s.name for s in config.slots]
     ratios: dict[str, list[float]] = {}       # "slot/sensor" -> per seed: H error together / alone
+    errors: dict[str, tuple[list[float], list[float]]] = {}      # "slot/sensor" -> (together, alone) per seed
     together_s, alone_s, wall_together, wall_alone, runs = [], [], [], [], []
     with tempfile.TemporaryDirectory() as d:
         for seed in range(args.seeds):
@@ -78,24 +79,35 @@ def main() -> None:
                 wall_alone.append(wall_one)
                 for sensor, pct in many[slot.name]["H"].items():
                     ratios.setdefault(f"{slot.name}/{sensor}", []).append(pct / alone[slot.name]["H"][sensor])
+                    pair = errors.setdefault(f"{slot.name}/{sensor}", ([], []))
+                    pair[0].append(pct)
+                    pair[1].append(alone[slot.name]["H"][sensor])
                 record["slots"][slot.name] = {"together_H_pct": many[slot.name]["H"],
                                               "alone_H_pct": alone[slot.name]["H"], "alone_table_time_s": table_one}
             runs.append(record)
-    median_ratio = {key: float(np.median(v)) for key, v in ratios.items()}
+    # each unit's H error together against alone: the ratio of the medians over seeds (the two sessions draw their
+    # own noise, so a seed's own ratio scatters as the errors do)
+    median_ratio = {key: float(np.median(a) / np.median(b)) for key, (a, b) in errors.items()}
+    pooled = {sensor: float(np.median([x for k, (a, _) in errors.items() if k.endswith("/" + sensor) for x in a])
+                            / np.median([x for k, (_, b) in errors.items() if k.endswith("/" + sensor) for x in b]))
+              for sensor in ("accel", "gyro", "mag")}
     table_ratio = float(np.median(together_s) / np.median(alone_s))
     figures = {
         "slots": len(names), "seeds": args.seeds, "orientations": args.orientations, "hold_s": args.hold_s,
         "table_time_n_slots_s": float(np.median(together_s)), "table_time_one_unit_s": float(np.median(alone_s)),
         "table_time_ratio": table_ratio,
-        "H_error_ratio_median_worst": max(median_ratio.values()),
-        "H_error_ratio_any_seed_worst": max(max(v) for v in ratios.values()),
+        "H_error_ratio_worst_unit": max(median_ratio.values()),
+        "H_error_ratio_median_of_units": float(np.median(list(median_ratio.values()))),
+        **{f"H_error_ratio_all_units_{sensor}": value for sensor, value in pooled.items()},
         "units_per_hour_n_slots": 3600.0 * len(names) / float(np.median(together_s)),
         "units_per_hour_one_unit": 3600.0 / float(np.median(alone_s)),
         "wall_s_n_slots_session": float(np.median(wall_together)), "wall_s_one_unit_session": float(np.median(wall_alone)),
         "target_table_time_ratio_le_1_15": table_ratio <= 1.15,
-        "target_H_ratio_median_le_1_1": max(median_ratio.values()) <= 1.1,
+        "target_H_ratio_each_unit_le_1_1": max(median_ratio.values()) <= 1.1,
+        "target_H_ratio_any_unit_le_1_25": max(median_ratio.values()) <= 1.25,
     }
-    stamp.report(run, figures, {"H_error_ratio_median": median_ratio, "runs": runs}, save=args.save)
+    stamp.report(run, figures, {"H_error_ratio_of_medians": median_ratio,
+                                "H_error_ratio_per_seed": ratios, "runs": runs}, save=args.save)
 
 
 if __name__ == "__main__":
