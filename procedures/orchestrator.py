@@ -301,11 +301,13 @@ class SessionOrchestrator:
         except KeyboardInterrupt as exc:
             signum = getattr(exc, "signum", signal.SIGINT)
             reason = f"stopped by {signal_name(signum)}; the table was stopped and disabled"
+            fan.live()                  # a slot dropped just before is told so first
             return {name: Outcome(self.folder / name, "aborted", self._mark(stores[name], "aborted", reason),
                                   holds=len(stores[name].completed_holds()), n_holds=n, signum=signum)
                     for name in board.live()}
         except Exception as exc:
             url = getattr(rig.table, "url", None)
+            fan.live()
             return {name: SessionOrchestrator(self.folder / name, self.build_rig)._failed(stores[name], exc, n,
                                                                                          url=url)
                     for name in board.live()}
