@@ -128,6 +128,9 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
             click.echo(line)
     click.echo(f"estimated rig time: {chosen.eta_s:.0f} s ({chosen.eta_s / 60:.1f} min)"
                + (f"; planned in {planning_s:.2f} s" if chosen is not default else ""))
+    if config.slots:
+        click.echo(f"units per hour of table time: {3600.0 * len(config.slots) / chosen.eta_s:.0f} "
+                   f"({len(config.slots)} slots in one session share its moves and holds)")
     if json_out is not None:
         doc = {"plan": chosen.to_dict(), "default": default.to_dict(), "noise": noise.sigma,
                "noise_source": noise.source, "planning_s": round(planning_s, 3), "observability": problems}
