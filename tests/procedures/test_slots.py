@@ -12,10 +12,12 @@ import numpy as np
 import pytest
 
 from fixtures.motion import TableTrack
+from fixtures.simslots import SimulatedSlots
 from fixtures.world.model import SensorModel, World
 from procedures.orchestrator import RigSpec, SessionOrchestrator
 from procedures.slot_session import MANIFEST, SlotsOutcome
 from rig.assembly import assemble_slots
+from rig.clock import RealClock
 from rig.commands.common import show_slots_outcome
 from rig.config import load_config
 from rig.exits import Exit
@@ -250,9 +252,6 @@ def test_four_units_together_cost_the_table_time_of_one_and_keep_their_accuracy(
 def test_a_real_table_of_slots_opens_each_slots_bus(tmp_path) -> None:
     """The real assembly (no --sim) on the buses a bench of emulated chips stands behind: each slot's board on the
     bus its configuration names, its unit as configured (no simulated serial), the table at its url."""
-    from fixtures.simslots import SimulatedSlots
-    from rig.clock import RealClock
-
     config = load_config(write(tmp_path, slot_toml('name = "a"\nserial = "U-1"', 'name = "b"\ni2c_bus = 4')))
     bench = SimulatedSlots(config, RealClock(), seed=3)
     opened = []
