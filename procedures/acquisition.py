@@ -94,7 +94,7 @@ class Sampler:
                 if key is not None and key in self.board.dropped:
                     self._aux_now[key] = (float("nan"), float("nan"))
                 else:
-                    temp, supply = self._aux(read_temperature, stamp), self._aux(read_supply, stamp)
+                    temp, supply = self._aux(read_temperature, stamp, key), self._aux(read_supply, stamp, key)
                     self._aux_now[key] = (float("nan") if temp is None else temp,
                                           float("nan") if supply is None else supply)
             temps, supplies = self._aux_rows[key]
@@ -145,11 +145,11 @@ class Sampler:
                 return value
         return (np.nan, np.nan, np.nan)
 
-    def _aux(self, read, stamp: float):
+    def _aux(self, read, stamp: float, slot: str | None = None):
         try:
             return read()
         except DriverError as e:
-            self.read_errors.append((stamp, f"temperature/supply: {e}"))
+            self.read_errors.append((stamp, ("" if slot is None else f"{slot}/") + f"temperature/supply: {e}"))
             return None
 
     def _wait_ready(self, name: str) -> None:
@@ -180,6 +180,14 @@ class Sampler:
         ready = self._ready.get(name)
         if ready is None:
             return False
+        if self._slots:             # that slot's chip failing now is its own end (`_read`), not the session's
+            try:
+                return self._align(ready, margin_s)
+            except DriverError:
+                return False
+        return self._align(ready, margin_s)
+
+    def _align(self, ready, margin_s: float) -> bool:
         edge = self._edge(ready, self.dt / 20, 2 * self.dt)
         if edge is None:
             return False

@@ -159,6 +159,9 @@ class SessionOrchestrator:
             held.enter_context(session_lock(self.folder))    # another process on it: refused, nothing touched
             store = held.enter_context(SessionStore.open(self.folder))
             meta = store.metadata
+            if meta.get("slot"):       # its table carried other slots: they are resumed together
+                raise InputError(f"{self.folder}: slot {meta['slot'].get('name')} of the session in "
+                                 f"{self.folder.parent}; resume every slot with `rig resume {self.folder.parent}`")
             if meta.get("status") in FINISHED_STATUSES:
                 raise InputError(f"{self.folder}: the session is already finished (status {meta['status']}, "
                                  f"verdict {meta.get('verdict', 'n/a')}); nothing to resume")

@@ -20,6 +20,7 @@ from rig.assembly import assemble_slots
 from rig.clock import RealClock
 from rig.commands.common import show_slots_outcome
 from rig.config import load_config
+from rig.errors import InputError
 from rig.exits import Exit
 from rig.store import SessionStore
 
@@ -271,3 +272,18 @@ def test_a_real_table_of_slots_opens_each_slots_bus(tmp_path) -> None:
     assert sorted(opened) == [1, 4]
     for name, counts in g.items():       # at rest, level: each board's accelerometer sees about 1 g along z
         assert abs(counts[2]) > 3 * max(abs(counts[0]), abs(counts[1])), (name, counts)
+
+
+def test_a_slots_folder_is_resumed_as_a_whole_not_one_slot(tmp_path) -> None:
+    config = load_config(write(tmp_path, slot_toml('name = "a"', 'name = "b"\ni2c_bus = 2', orientations=9)))
+
+    def stop(k: int, n: int, phase: str) -> None:
+        if k == 2 and phase == "move":
+            raise KeyboardInterrupt
+
+    out = tmp_path / "out"
+    SessionOrchestrator(out, Factory(), plots=False, progress=stop).start(config, RigSpec(True, 1))
+    with pytest.raises(InputError, match=r"rig resume .*out`"):
+        SessionOrchestrator(out / "a", Factory(), plots=False).resume()
+    with pytest.raises(Exception, match="already exists"):
+        SessionOrchestrator(out, Factory(), plots=False).start(config, RigSpec(True, 1))
