@@ -39,10 +39,10 @@ def configuration(orientations: int, hold_s: float, n_slots: int):
     return replace(config, slots=config.slots[:n_slots])
 
 
-def session(config, seed: int, folder: Path) -> tuple[dict, float, float]:
-    """({slot: {"H": {sensor: %}, "lever_arm_m": [...]}}, table time s, wall s) of one session."""
+def session(config, seed: int, folder: Path, trial: int = 0) -> tuple[dict, float, float]:
+    """({slot: {"H": {sensor: %}}}, table time s, wall s) of one session (`trial`: the noise trial)."""
     t0 = time.perf_counter()
-    outcome = SessionOrchestrator(folder, build_rig, plots=False).start(config, RigSpec(True, seed))
+    outcome = SessionOrchestrator(folder, build_rig, plots=False).start(config, RigSpec(True, seed, trial=trial))
     wall = time.perf_counter() - t0
     per = {}
     for name, one in outcome.slots.items():
@@ -58,6 +58,9 @@ def main() -> None:
     ap.add_argument("--orientations", type=int, default=20)
     ap.add_argument("--hold-s", type=float, default=5.0)
     ap.add_argument("--slots", type=int, default=4)
+    ap.add_argument("--null", action="store_true",
+                    help="also each slot alone in a second noise trial: the scatter of the same ratio when nothing "
+                         "differs but the noise")
     ap.add_argument("--save", action="store_true")
     args = ap.parse_args()
     run = stamp.start("bench_slots")
@@ -65,6 +68,7 @@ def main() -> None:
     names = [s.name for s in config.slots]
     ratios: dict[str, list[float]] = {}       # "slot/sensor" -> per seed: H error together / alone
     errors: dict[str, tuple[list[float], list[float]]] = {}      # "slot/sensor" -> (together, alone) per seed
+    null: dict[str, list[float]] = {}         # "slot/sensor" -> per seed: H error alone in another noise trial
     together_s, alone_s, wall_together, wall_alone, runs = [], [], [], [], []
     with tempfile.TemporaryDirectory() as d:
         for seed in range(args.seeds):
@@ -82,6 +86,11 @@ def main() -> None:
                     pair = errors.setdefault(f"{slot.name}/{sensor}", ([], []))
                     pair[0].append(pct)
                     pair[1].append(alone[slot.name]["H"][sensor])
+                if args.null:
+                    again, _, _ = session(replace(config, slots=(slot,)), seed, Path(d) / f"null-{seed}-{slot.name}",
+                                          trial=1)
+                    for sensor, pct in again[slot.name]["H"].items():
+                        null.setdefault(f"{slot.name}/{sensor}", []).append(pct)
                 record["slots"][slot.name] = {"together_H_pct": many[slot.name]["H"],
                                               "alone_H_pct": alone[slot.name]["H"], "alone_table_time_s": table_one}
             runs.append(record)
@@ -102,6 +111,9 @@ def main() -> None:
         "units_per_hour_n_slots": 3600.0 * len(names) / float(np.median(together_s)),
         "units_per_hour_one_unit": 3600.0 / float(np.median(alone_s)),
         "wall_s_n_slots_session": float(np.median(wall_together)), "wall_s_one_unit_session": float(np.median(wall_alone)),
+        **({"H_error_ratio_worst_unit_null": max(float(np.median(null[k]) / np.median(errors[k][1])) for k in null),
+            "H_error_ratio_median_of_units_null": float(np.median([np.median(null[k]) / np.median(errors[k][1])
+                                                                    for k in null]))} if null else {}),
         "target_table_time_ratio_le_1_15": table_ratio <= 1.15,
         "target_H_ratio_each_unit_le_1_1": max(median_ratio.values()) <= 1.1,
         "target_H_ratio_any_unit_le_1_25": max(median_ratio.values()) <= 1.25,
