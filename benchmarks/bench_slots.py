@@ -1,6 +1,6 @@
 """Benchmark: several units in one session against each unit alone (`[[slots]]`, rig/configs/four-slots.toml).
 
-For each seed, one session of N slots (LSM6DSO boards on their own buses, at their lever arms, one mounted turned)
+For each seed, one session of N slots (bsn boards on their own buses, at their lever arms, one mounted turned)
 and, for each slot, a session of that slot alone (the same simulated unit: its errors and noise come from the
 seed and the slot's name). Prints JSON: the table time of the N-slot session against one unit's, each unit's H
 error (every sensor, % Frobenius, against the simulator's truth) against its own single-unit session's, the lever
@@ -30,12 +30,12 @@ from rig.assembly import build_rig  # noqa: E402
 from rig.config import load_config  # noqa: E402
 
 
-def configuration(orientations: int, hold_s: float, n_slots: int):
-    path = resources.files("rig.configs").joinpath("four-slots.toml")
-    config = load_config(Path(str(path)))
+def configuration(orientations: int, hold_s: float, n_slots: int, path: str | None = None):
+    path = path or str(resources.files("rig.configs").joinpath("four-slots.toml"))
+    config = load_config(Path(path))
     config.schedule.orientations, config.schedule.hold_s = orientations, hold_s
     if n_slots > len(config.slots):
-        raise SystemExit(f"--slots {n_slots}: four-slots.toml declares {len(config.slots)}")
+        raise SystemExit(f"--slots {n_slots}: {path} declares {len(config.slots)}")
     return replace(config, slots=config.slots[:n_slots])
 
 
@@ -58,13 +58,14 @@ def main() -> None:
     ap.add_argument("--orientations", type=int, default=20)
     ap.add_argument("--hold-s", type=float, default=5.0)
     ap.add_argument("--slots", type=int, default=4)
+    ap.add_argument("--config", default=None, help="a configuration of slots (default rig/configs/four-slots.toml)")
     ap.add_argument("--null", action="store_true",
                     help="also each slot alone in a second noise trial: the scatter of the same ratio when nothing "
                          "differs but the noise")
     ap.add_argument("--save", action="store_true")
     args = ap.parse_args()
     run = stamp.start("bench_slots")
-    config = configuration(args.orientations, args.hold_s, args.slots)
+    config = configuration(args.orientations, args.hold_s, args.slots, args.config)
     names = [s.name for s in config.slots]
     ratios: dict[str, list[float]] = {}       # "slot/sensor" -> per seed: H error together / alone
     errors: dict[str, tuple[list[float], list[float]]] = {}      # "slot/sensor" -> (together, alone) per seed
@@ -102,7 +103,7 @@ def main() -> None:
               for sensor in ("accel", "gyro", "mag")}
     table_ratio = float(np.median(together_s) / np.median(alone_s))
     figures = {
-        "slots": len(names), "seeds": args.seeds, "orientations": args.orientations, "hold_s": args.hold_s,
+        "slots": len(names), "board": ",".join(sorted({s.board for s in config.slots})), "seeds": args.seeds, "orientations": args.orientations, "hold_s": args.hold_s,
         "table_time_n_slots_s": float(np.median(together_s)), "table_time_one_unit_s": float(np.median(alone_s)),
         "table_time_ratio": table_ratio,
         "H_error_ratio_worst_unit": max(median_ratio.values()),
