@@ -229,7 +229,8 @@ def test_resume_continues_every_slot_from_the_last_orientation_all_recorded(tmp_
 def test_four_units_together_cost_the_table_time_of_one_and_keep_their_accuracy(tmp_path) -> None:
     """The issue's targets, short: 4 slots in one session against each slot alone (the same simulated unit), two
     seeds, 9 orientations. Table time at most 1.15x one unit's; each sensor's H error, over every unit and seed,
-    within 1.25x of the units' own single-unit sessions (benchmarks/bench_slots.py measures 10 seeds)."""
+    within 1.1x of the units' own single-unit sessions (benchmarks/bench_slots.py measures each unit's, over 10
+    seeds of the full schedule: two seeds are too few for one unit's median)."""
     config = load_config(Path(__file__).resolve().parents[2] / "rig" / "configs" / "four-slots.toml")
     config.schedule.orientations, config.schedule.hold_s = 9, 1.5
     together, alone = {}, {}
@@ -242,12 +243,15 @@ def test_four_units_together_cost_the_table_time_of_one_and_keep_their_accuracy(
                 replace(config, slots=(slot,)), RigSpec(True, seed))
             table_one.append(one.table_time_s)
             for sensor, pct in many.slots[slot.name].h_error_pct.items():
-                together.setdefault(sensor, []).append(pct)
-                alone.setdefault(sensor, []).append(one.slots[slot.name].h_error_pct[sensor])
+                together.setdefault((slot.name, sensor), []).append(pct)
+                alone.setdefault((slot.name, sensor), []).append(one.slots[slot.name].h_error_pct[sensor])
     assert max(table_many) <= 1.15 * min(table_one), (table_many, table_one)
     for sensor in ("accel", "gyro", "mag"):
-        assert len(together[sensor]) == 8
-        assert np.median(together[sensor]) <= 1.25 * np.median(alone[sensor]), (sensor, together, alone)
+        keys = [k for k in together if k[1] == sensor]
+        assert len(keys) == 4
+        pooled_together = np.median([x for k in keys for x in together[k]])
+        pooled_alone = np.median([x for k in keys for x in alone[k]])
+        assert pooled_together <= 1.1 * pooled_alone, (sensor, together, alone)
 
 
 def test_a_real_table_of_slots_opens_each_slots_bus(tmp_path) -> None:
