@@ -12,6 +12,8 @@ from drivers.registry import chip_class
 from rig.boards import BOARDS, BoardSpec
 
 BUS_KEYS = ("i2c_bus", "spi_bus")
+I2C_CLOCKS_HZ = (100_000, 400_000)      # standard and fast mode, which every I2C chip of the boards supports
+CLOCK_KEYS = ("i2c_clock_hz",)
 LOCATION_KEYS = ("bus", "address", "cs", "channels", "gpio_chip", "gpio_line")
 
 
@@ -51,14 +53,25 @@ def placements(kind: str, chips: Mapping | None = None) -> tuple[Placement, ...]
     """The board's placements with `[chips.<part>]` overrides applied; any unknown key is a ValueError."""
     spec = board_spec(kind)
     chips = dict(chips or {})
-    unknown = set(chips) - set(BUS_KEYS) - set(spec.names)
+    unknown = set(chips) - set(BUS_KEYS) - set(CLOCK_KEYS) - set(spec.names)
     if unknown:
-        raise ValueError(f"[chips] has unknown keys {sorted(unknown)}; allowed: {list(BUS_KEYS)} and one table "
+        raise ValueError(f"[chips] has unknown keys {sorted(unknown)}; allowed: {list(BUS_KEYS + CLOCK_KEYS)} and one "
+                         f"table "
                          f"per part of the {kind} board: {list(spec.names)}")
     for key in BUS_KEYS:
         if key in chips and (isinstance(chips[key], bool) or not isinstance(chips[key], int) or chips[key] < 0):
             raise ValueError(f"[chips] {key} = {chips[key]!r} must be a bus number (0, 1, ...)")
+    i2c_clock_hz(chips)
     return tuple(_override(p, chips.get(p.name)) for p in spec.parts)
+
+
+def i2c_clock_hz(chips: Mapping | None) -> int:
+    """[chips] i2c_clock_hz: the I2C bus's SCL frequency (the bus budget times transfers at it), 100 kHz unless
+    set; only the standard and fast-mode clocks are allowed."""
+    value = (chips or {}).get("i2c_clock_hz", I2C_CLOCKS_HZ[0])
+    if isinstance(value, bool) or value not in I2C_CLOCKS_HZ:
+        raise ValueError(f"[chips] i2c_clock_hz = {value!r}; allowed: {', '.join(map(str, I2C_CLOCKS_HZ))} (Hz)")
+    return int(value)
 
 
 def _override(p: Placement, table: Any) -> Placement:

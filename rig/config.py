@@ -19,6 +19,7 @@ from rig.io.text_file import read_utf8
 from rig.rotations import TableGeometry
 from rig.sim_faults import SimFaults, checked_sim_faults, is_finite_number
 from rig.slot_config import SlotConfig, parse_slots, slot_config, slots_from_dicts
+from rig.chamber.profile import load_profile as load_chamber_profile
 from rig.turntable.profile import load_profile
 
 BOARDS = tuple(BOARD_SPECS)
@@ -39,6 +40,18 @@ class TurntableConfig:
 
 
 @dataclass
+class ChamberConfig:
+    """[chamber]: the thermal chamber's controller (docs/reference/configuration.md, docs/guides/chamber.md)."""
+    url: str = "tcp://127.0.0.1:502"
+    profile: str | None = None         # chamber register profile; default: the packaged Watlow F4T one
+    tolerance_c: float = 0.5           # the air is at its set point within this
+    soak_timeout_s: float = 3600.0     # a set point not reached in this long is a fault
+    ramp_c_per_min: float = 2.0        # 0: set points step
+    timeout_s: float = 1.0             # per Modbus request
+    poll_s: float = 2.0                # between readings of the air while waiting
+
+
+@dataclass
 class ScheduleConfig:
     orientations: int = 20
     hold_s: float = 5.0
@@ -48,6 +61,7 @@ class ScheduleConfig:
     sequential: bool = False           # sequential holds (procedures.hold_quality.HoldTarget)
     hold_min_s: float = 1.5            # their shortest hold (bump detection judges three 0.5 s windows)
     hold_max_s: float = 0.0            # their longest; 0: three times hold_s
+    mount_s: float = 300.0             # seconds to take a session's units off the table and mount the next ones
 
 
 @dataclass
@@ -64,6 +78,7 @@ class RigConfig:
     chips: dict = field(default_factory=dict)      # [chips]: buses and per-part overrides of the board's placements
     sim: dict = field(default_factory=dict)        # [sim]: which parts are emulated ("fake") or real
     store: dict = field(default_factory=dict)      # [store] url (the lab's store), rig (this rig's name in it)
+    chamber: ChamberConfig | None = None           # [chamber]; None: no chamber on this rig
     source: str = "<defaults>"
     slots: tuple[SlotConfig, ...] = ()             # [[slots]]: several boards on the table; none: one unit
 
@@ -105,7 +120,22 @@ def load_config(path: str | Path | None = None) -> RigConfig:
         except ValueError as e:
             raise ValueError(f"{where}: [turntable] profile = {profile!r} (a path relative to this configuration): "
                              f"{e}") from None
+    _check_chamber_profile(config, path, where)
     return config
+
+
+def _check_chamber_profile(config: RigConfig, path: str | Path | None, where: str) -> None:
+    """[chamber] profile, resolved beside the configuration and read now, as the turntable's is."""
+    profile = config.chamber.profile if config.chamber is not None else None
+    if not profile:
+        return
+    if path is not None and not Path(profile).is_absolute():
+        config.chamber.profile = str(Path(path).parent / profile)
+    try:
+        load_chamber_profile(config.chamber.profile)
+    except ValueError as e:
+        raise ValueError(f"{where}: [chamber] profile = {profile!r} (a path relative to this configuration): "
+                         f"{e}") from None
 
 
 @dataclass(frozen=True)
@@ -133,7 +163,7 @@ SECTIONS = {"unit": ("serial", "board", "operator"),
             "environment": ("gravity_mps2", "field_uT"),
             "turntable": None, "schedule": None, "limits": None, "chips": None,
             "sim": ("chips", "turntable", "table_link", "faults", *SIM_WORLD_KEYS), "store": ("url", "rig"),
-            "slots": None}
+            "chamber": None, "slots": None}
 ARRAYS = ("slots",)         # arrays of tables ([[slots]]), checked by their own reader
 
 
@@ -192,12 +222,18 @@ RANGES = {  # (section, key): (lowest, highest, why)
     ("schedule", "max_hold_attempts"): (1, 100, "tries of a hold that shows motion"),
     ("schedule", "hold_min_s"): (0.0, 3600.0, "seconds"),
     ("schedule", "hold_max_s"): (0.0, 36000.0, "seconds; 0: three times hold_s"),
+    ("schedule", "mount_s"): (0.0, 86400.0, "seconds between sessions to swap units"),
     ("turntable", "speed_dps"): (0.1, 10000.0, "deg/s"),
     ("turntable", "accel_dps2"): (0.1, 1e6, "deg/s^2"),
     ("turntable", "tolerance_deg"): (1e-6, 1.0, "the in-position window, deg"),
     ("turntable", "settle_s"): (0.0, 60.0, "seconds in position before a hold"),
     ("turntable", "poll_every"): (1, 10000, "sample ticks between status polls during moves"),
     ("turntable", "watchdog_ms"): (0, 65535, "ms; 0: off"),
+    ("chamber", "tolerance_c"): (0.01, 20.0, "C"),
+    ("chamber", "soak_timeout_s"): (1.0, 86400.0, "seconds"),
+    ("chamber", "ramp_c_per_min"): (0.0, 100.0, "C/min; 0: step"),
+    ("chamber", "timeout_s"): (0.01, 600.0, "seconds per request"),
+    ("chamber", "poll_s"): (0.01, 600.0, "seconds"),
 }
 
 
@@ -246,6 +282,7 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
                     field_uT=_positive(env, "field_uT", 50.0, where),
                     limits=dict(raw.get("limits", {})), chips=dict(raw.get("chips", {})),
                     sim=dict(raw.get("sim", {})), store=dict(raw.get("store", {})), source=where)
+    cfg.chamber = _section(raw, "chamber", ChamberConfig, where) if "chamber" in raw else None
     cfg.slots = parse_slots(raw.get("slots"), unit_board=board, chips=cfg.chips, where=where)
     for key, value in cfg.store.items():
         if not isinstance(value, str) or not value:
@@ -311,6 +348,7 @@ def config_from_dict(d: dict) -> RigConfig:
                      schedule=ScheduleConfig(**d.get("schedule", {})), gravity_mps2=d.get("gravity_mps2", 9.80665),
                      field_uT=d.get("field_uT", 50.0), limits=d.get("limits", {}), chips=d.get("chips", {}),
                      sim=d.get("sim", {}), store=d.get("store", {}), source=d.get("source", "<session metadata>"),
+                     chamber=ChamberConfig(**d["chamber"]) if d.get("chamber") else None,
                      slots=slots_from_dicts(d.get("slots") or []))
 
 

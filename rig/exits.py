@@ -39,9 +39,10 @@ EXIT_TABLE = (
     ((2,), "bad input: an option, a configuration, a value the table refuses (beyond its limits), a folder that is "
            "not a session or already holds what would be replaced (without --force), a file that breaks its "
            "format, credentials or a role the store refuses; nothing was changed", "unchanged"),
-    ((3,), "failed: a fault of the hardware, the turntable link, the data, the disk or the store's server; what "
-           "was recorded is kept and `rig resume` (or `rig push`) continues", "failed"),
-    ((4,), "busy: the session folder, the turntable or a TCP port is in use by another process, named", "unchanged"),
+    ((3,), "failed: a fault of the hardware, the turntable or chamber link, the data, the disk or the store's "
+           "server; what was recorded is kept and `rig resume` (or `rig push`) continues", "failed"),
+    ((4,), "busy: the session folder, the turntable, the chamber or a TCP port is in use by another process, named",
+     "unchanged"),
     ((70,), "internal error (a bug): one line naming the file its traceback was written to", "failed"),
     ((129, 130, 143), "aborted by SIGHUP, SIGINT (Ctrl-C), SIGTERM (128 + the signal); the table stopped and "
                       "disabled", "aborted"),

@@ -1,4 +1,4 @@
-"""One process per session folder and per turntable: exclusive locks that name their holder.
+"""One process per session folder, per turntable and per chamber: exclusive locks that name their holder.
 
 A lock is `fcntl.flock` on an open file, so the kernel releases it when the holding process dies however it
 dies (SIGKILL, power-off of a USB host, a crash): a stale lock is never a problem, the next process simply
@@ -117,12 +117,21 @@ def table_key(url: str) -> str | None:
 
 def table_lock(url: str) -> contextlib.AbstractContextManager:
     """The lock of the turntable at `url` (a no-op for a private simulated table)."""
+    return _device_lock("table", "turntable", url)
+
+
+def chamber_lock(url: str) -> contextlib.AbstractContextManager:
+    """The lock of the thermal chamber at `url` (a no-op for a private simulated chamber)."""
+    return _device_lock("chamber", "chamber", url)
+
+
+def _device_lock(prefix: str, what: str, url: str) -> contextlib.AbstractContextManager:
     key = table_key(url)
     if key is None:
         return contextlib.nullcontext()
     slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", key).strip("_")[:60]
     digest = hashlib.sha1(key.encode()).hexdigest()[:8]
-    return exclusive_lock(lock_dir() / f"table-{slug}-{digest}.lock", f"turntable {key}")
+    return exclusive_lock(lock_dir() / f"{prefix}-{slug}-{digest}.lock", f"{what} {key}")
 
 
 def _read_holder(fd: int) -> dict:

@@ -221,3 +221,9 @@ def applied(config: RigConfig, plan: Plan) -> RigConfig:
     out.turntable.speed_dps = plan.speed_dps
     out.turntable.accel_dps2 = plan.accel_dps2
     return out
+
+
+def units_per_hour(table_s: float, mount_s: float, slots: int = 1) -> float:
+    """Units calibrated per hour: `slots` units per session, a session being its table time and the mounting
+    between sessions ([schedule] mount_s)."""
+    return slots * 3600.0 / (table_s + mount_s)

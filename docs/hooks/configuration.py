@@ -18,7 +18,7 @@ import tokenize
 
 from drivers.registry import chip_class
 from rig import config as cfg
-from rig.board import BUS_KEYS, LOCATION_KEYS
+from rig.board import BUS_KEYS, CLOCK_KEYS, I2C_CLOCKS_HZ, LOCATION_KEYS
 from rig.boards import BOARDS
 from rig.report.metrics import METRICS
 from rig.rotations import TableGeometry
@@ -38,6 +38,7 @@ MEANINGS = {
     ("turntable", "profile"): "the table's register map, a TOML file (a path relative to this configuration); "
                               "default: the packaged `tt-map/1`",
     ("turntable", "speed_dps"): "the speed of every move, deg/s",
+    ("chamber", "url"): "the chamber controller's line, in the form of the table's `url`",
     ("turntable", "accel_dps2"): "the acceleration and deceleration of every move, deg/s^2",
     ("turntable", "tolerance_deg"): "the in-position window: how close to its target an axis must be, deg",
     ("turntable", "settle_s"): "time in position before a hold starts, s (with emulated chips following a real "
@@ -73,6 +74,8 @@ MEANINGS = {
     ("store", "rig"): "this rig's name in the store (default: the host name)",
     ("chips", "i2c_bus"): "the I2C bus number (`/dev/i2c-N`)",
     ("chips", "spi_bus"): "the SPI bus number (`/dev/spidevB.C`)",
+    ("chips", "i2c_clock_hz"): "the I2C bus's SCL clock, Hz: what `rig plan`'s bus budget times the transfers at "
+                               "(set the bus itself to it in the rig computer's device tree)",
 }
 
 # Allowed values checked in code rather than declared in rig.config.RANGES (tests/docs checks each claim).
@@ -210,6 +213,13 @@ def generate() -> str:
     parts += ["## `[turntable]`", "", "The table and its moves (`rig.config.TurntableConfig`).", ""]
     parts += _table(dataclass_rows("turntable", cfg.TurntableConfig)) + [""]
 
+    # [chamber]
+    rendered.add("chamber")
+    parts += ["## `[chamber]`", "", "The thermal chamber's controller (`rig.config.ChamberConfig`); without the "
+              "section the rig has no chamber. Its profile is a chamber register profile "
+              "([chamber map](chamber-map.md), [guide](../guides/chamber.md)).", ""]
+    parts += _table(dataclass_rows("chamber", cfg.ChamberConfig)) + [""]
+
     # [table]
     rendered.add("table")
     geometry = TableGeometry()
@@ -254,6 +264,9 @@ def generate() -> str:
     for key in BUS_KEYS:
         default, where = USED_DEFAULTS["chips", key]
         rows.append((key, toml_value(default), "a bus number (0, 1, ...)", _meaning("chips", key, used=used)))
+    for key in CLOCK_KEYS:
+        rows.append((key, toml_value(I2C_CLOCKS_HZ[0]), " or ".join(map(str, I2C_CLOCKS_HZ)),
+                     _meaning("chips", key, used=used)))
     parts += _table(rows) + [""]
     parts += ["Keys of `[chips.<part>]`: where the part sits, and the chip's own settings.", "",
               "| key | meaning |", "| --- | --- |"]

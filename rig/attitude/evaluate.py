@@ -19,6 +19,7 @@ from rig.attitude.ukf import AttitudeEstimate, UKFSettings, estimate_attitude
 from rig.calibration.turntable.lever_arm import compensate
 from rig.calibration.turntable.reference_convention import refuse_conjugated_reference
 from rig.calibration.numerics.result import TriadCalibration
+from rig.calibration.thermal.apply import apply_with_temperature
 from rig.errors import CalibrationError
 from rig.session_data import SessionData, filled
 
@@ -99,7 +100,8 @@ class CalibratedSignals(dict):
 
 
 def calibrated_signals(session: SessionData, sensors: dict[str, TriadCalibration]) -> CalibratedSignals:
-    """`u = H (y - B)` per sensor, NaN rows kept; gyro and accel are required.
+    """`u = H (y - B)` per sensor, NaN rows kept; gyro and accel are required. A calibration with a temperature
+    model applies at each row's die temperature, and refuses one outside its range (thermal/apply.py).
 
     When the accel calibration carries a significant lever arm (`rig.calibration.turntable.lever_arm`), the
     accelerometer is moved to the intersection of the table axes here, before any filter sees it: the
@@ -111,9 +113,12 @@ def calibrated_signals(session: SessionData, sensors: dict[str, TriadCalibration
         have = f"session has {sorted(session.raw)}, calibration has {sorted(sensors)}"
         raise CalibrationError(f"{session.source}: attitude needs {', '.join(missing)} in both session and "
                                f"calibration ({have})")
-    u = CalibratedSignals({name: sensors[name].apply(session.raw[name]) for name in session.raw if name in sensors})
+    def calibrated(name: str, raw: np.ndarray, specific_force: np.ndarray | None = None) -> np.ndarray:
+        return apply_with_temperature(name, sensors[name], raw, session.temp_c, specific_force)
+
+    u = CalibratedSignals({name: calibrated(name, session.raw[name]) for name in session.raw if name in sensors})
     if sensors["gyro"].g_sensitivity is not None:            # a recording's calibration may carry one
-        u["gyro"] = sensors["gyro"].apply(session.raw["gyro"], sensors["accel"].apply(filled(session.raw["accel"])))
+        u["gyro"] = calibrated("gyro", session.raw["gyro"], calibrated("accel", filled(session.raw["accel"])))
     r = significant_lever_arm(sensors["accel"])
     if r is not None:
         u["accel"] = compensate(session.t, u["accel"], u["gyro"], r)

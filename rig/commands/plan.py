@@ -8,16 +8,19 @@ simulated units' unless `--noise-from SESSION` names a session of the unit (its 
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
 import click
 
+from rig.board import i2c_clock_hz
 from rig.commands.common import rig_config
 from rig.exits import CommandError, Exit, FiniteFloat, plain
 
 BUDGET_HELP = "Plan for this many seconds of table time (the most accurate plan that fits)."
 TARGET_HELP = "Plan for this H error (relative RMS, %, every sensor): the shortest plan predicted to reach it."
+SLOTS = 1               # units on the table in one session
 NOISE_HELP = "Take the noise from a session of this unit (its folder, with calibration.json) instead of the default."
 
 
@@ -81,6 +84,50 @@ def noise_of_session(folder: Path):
     return planner.NoiseModel(sigma, f"measured in {folder}")
 
 
+class StillWorld:
+    """The unit at rest, upright: all a bus budget needs from the world is that every chip has something to sample."""
+
+    READINGS = {"accel": (0.0, 0.0, 9.80665), "gyro": (0.0, 0.0, 0.0), "mag": (20.0, 0.0, -40.0)}
+
+    def source(self, kind: str):
+        import numpy as np
+
+        from fixtures.sources import ConstantSource
+
+        return ConstantSource(np.array(self.READINGS[kind]))
+
+
+def simulated_bus_loads(config):
+    """The bus loads of the configuration's board, measured with its own drivers on emulated chips (the transfers
+    are the drivers', so they are the real board's too)."""
+    from fixtures.simrig import SimulatedBoard
+    from rig.bus_budget import tick_budget
+    from rig.clock import SimClock
+
+    clock = SimClock()
+    board = SimulatedBoard(config, clock, StillWorld())
+    return tick_budget(config, board.wiring(), settle=lambda: clock.sleep(1.0 / config.schedule.rate_hz))
+
+
+def bus_loads(config):
+    """`simulated_bus_loads`, refused (exit 2) when a bus cannot carry the schedule's rate."""
+    from rig.bus_budget import refusal
+
+    loads = simulated_bus_loads(config)
+    why = refusal(loads, config.schedule.rate_hz)
+    if why is not None:
+        raise CommandError(f"{config.source}: [schedule] rate_hz = {config.schedule.rate_hz:g}: {why}",
+                           Exit.BAD_INPUT)
+    return loads
+
+
+def load_doc(load) -> dict:
+    """A bus's load for the --json document (no Infinity: JSON has none)."""
+    top = load.max_rate_hz()
+    return {"bus": load.bus, "worst_tick_s": load.worst_tick_s, "mean_tick_s": load.seconds_per_tick,
+            "transfers": load.transfers, "bytes": load.bytes, "max_rate_hz": top if math.isfinite(top) else None}
+
+
 def predicted_lines(plan, default=None) -> list[str]:
     out = []
     for name, p in plan.predicted.items():
@@ -105,6 +152,7 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
     import time
 
     from procedures.session import check_plan, plan_for
+    from rig.planner import units_per_hour
 
     if budget_s is not None and target_h_pct is not None:
         raise click.UsageError("give --budget-s or --target-h-pct, not both")
@@ -113,6 +161,7 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
     config, chosen, default, noise = planned_config(rig_config(config_path, orientations), budget_s, target_h_pct,
                                                     noise_from)
     planning_s = time.perf_counter() - started
+    loads = bus_loads(config)
     schedule = plan_for(config)
     t, s = config.turntable, config.schedule
     click.echo(f"{len(schedule)} orientations on a {config.board} board, holds of {s.hold_s} s at {s.rate_hz} Hz, "
@@ -128,12 +177,21 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
             click.echo(line)
     click.echo(f"estimated rig time: {chosen.eta_s:.0f} s ({chosen.eta_s / 60:.1f} min)"
                + (f"; planned in {planning_s:.2f} s" if chosen is not default else ""))
-    if config.slots:
-        click.echo(f"units per hour of table time: {3600.0 * len(config.slots) / chosen.eta_s:.0f} "
-                   f"({len(config.slots)} slots in one session share its moves and holds)")
+    click.echo(f"bus load at {s.rate_hz:g} Hz (busiest tick, as % of the {1e3 / s.rate_hz:.3g} ms tick; mean; "
+               f"I2C at {i2c_clock_hz(config.chips) // 1000} kHz):")
+    for load in loads:
+        click.echo(f"  {load.bus}: {load.worst_tick_s * 1e3:.3g} ms = {load.load(s.rate_hz) * 100:.1f} % "
+                   f"(mean {load.seconds_per_tick * s.rate_hz * 100:.1f} %), carries up to "
+                   f"{load.max_rate_hz():g} Hz")
+    slots = max(len(config.slots), SLOTS)
+    per_hour = units_per_hour(chosen.eta_s, s.mount_s, slots)
+    click.echo(f"units per hour: {per_hour:.2f} ({slots} slot{'s' if slots > 1 else ''} x 3600 s / "
+               f"({chosen.eta_s:.0f} s on the table + {s.mount_s:g} s mounting))")
     if json_out is not None:
         doc = {"plan": chosen.to_dict(), "default": default.to_dict(), "noise": noise.sigma,
-               "noise_source": noise.source, "planning_s": round(planning_s, 3), "observability": problems}
+               "noise_source": noise.source, "planning_s": round(planning_s, 3), "observability": problems,
+               "bus_load": [load_doc(x) for x in loads],
+               "units_per_hour": per_hour}
         try:
             json_out.write_text(json.dumps(doc, indent=2) + "\n")
         except OSError as exc:

@@ -19,6 +19,7 @@ import numpy as np
 
 import rig
 from rig.calibration.numerics.result import GSensitivity, TriadCalibration
+from rig.calibration.thermal.model import TemperatureModelFormatError, ThermalModel
 from rig.errors import InputError
 from rig.io.atomic import write_text_atomic
 from rig.io.text_file import read_utf8
@@ -38,10 +39,11 @@ class CalibrationFileError(InputError):
 
 def write_calibration(path: str | os.PathLike, sensors: dict[str, TriadCalibration], *, gravity: float,
                       field_uT: float | None, unit_serial: str | None = None, board: str | None = None,
-                      extra: dict | None = None) -> Path:
+                      extra: dict | None = None, temperature_models: dict[str, ThermalModel] | None = None) -> Path:
     """Write one unit's calibration; `extra` adds top-level keys (it may not replace the schema's own). A file
     without a calibrated sensor is written only where `extra["not_calibrated"]` says why of each: the user reads
-    it, and `read_calibration` refuses it for applying, naming those reasons."""
+    it, and `read_calibration` refuses it for applying, naming those reasons. `temperature_models`: a calibrated
+    sensor's B(T), H(T), written as `sensors.<s>.temperature_model`."""
     if not sensors and not (extra or {}).get("not_calibrated"):
         raise ValueError("write_calibration: no sensors to write")
     doc: dict = {
@@ -64,6 +66,10 @@ def write_calibration(path: str | os.PathLike, sensors: dict[str, TriadCalibrati
             raise ValueError(f"write_calibration: sensor {name!r} has det(H) = {det:.3g}; the file requires det(H) > 0")
         entry = _jsonable(cal.to_json_dict(unit))
         doc["sensors"][name] = {k: v for k, v in entry.items() if v is not None}   # unknown: key left out
+    for name, model in (temperature_models or {}).items():
+        if name not in doc["sensors"]:
+            raise ValueError(f"write_calibration: a temperature model for {name!r}, which has no calibration here")
+        doc["sensors"][name]["temperature_model"] = model.to_json_dict()
     clash = set(extra or {}) & set(TOP_LEVEL_KEYS)
     if clash:
         raise ValueError(f"write_calibration: extra keys {sorted(clash)} would replace the schema's own")
@@ -146,12 +152,29 @@ def _check_sensor(path: Path, key: str, entry) -> None:
         if entry.get(field) is not None:
             if (_array(path, f"{key}.{field}", entry[field], shape) < 0).any():
                 raise CalibrationFileError(path, "standard deviations cannot be negative", f"{key}.{field}")
+    if "temperature_model" in entry:
+        _temperature_model(path, key, entry["temperature_model"])
     g = entry.get("g_sensitivity")
     if g is not None:
         if not isinstance(g, dict) or "K" not in g or "f_ref_mps2" not in g:
             raise CalibrationFileError(path, "must be an object with K and f_ref_mps2", f"{key}.g_sensitivity")
         _array(path, f"{key}.g_sensitivity.K", g["K"], (3, 3))
         _array(path, f"{key}.g_sensitivity.f_ref_mps2", g["f_ref_mps2"], (3,))
+
+
+def _temperature_model(path: Path, key: str, value) -> ThermalModel:
+    try:
+        return ThermalModel.from_json_dict(key.split(".")[-1], value)
+    except TemperatureModelFormatError as e:
+        sub = "" if e.key == "temperature_model" else f".{e.key}"
+        raise CalibrationFileError(path, e.message, f"{key}.temperature_model{sub}") from None
+
+
+def temperature_models_from_calibration(doc: dict, path: str | os.PathLike = "calibration.json"
+                                        ) -> dict[str, ThermalModel]:
+    """The temperature models of a validated calibration document, by sensor (only the sensors that have one)."""
+    return {name: _temperature_model(Path(path), f"sensors.{name}", e["temperature_model"])
+            for name, e in doc["sensors"].items() if "temperature_model" in e}
 
 
 def _array(path: Path, key: str, value, shape: tuple[int, ...]) -> np.ndarray:

@@ -12,9 +12,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from rig.clock import Clock, RealClock
-from rig.turntable.channel import ModbusChannel
-from rig.turntable.errors import (CommunicationError, EStopActive, IdentityError, ModbusExceptionError,
-                                  MoveRejected, MoveTimeout, ResponseLost, TableAlarm, TurntableError)
+from rig.modbus.channel import ModbusChannel
+from rig.turntable.errors import (LINK_ERRORS, CommunicationError, EStopActive, IdentityError,
+                                  ModbusExceptionError, MoveRejected, MoveTimeout, ResponseLost, TableAlarm,
+                                  TurntableError)
 from rig.turntable.profile import AXIS_REGISTER_TYPES, TableProfile, decode_bits, load_profile
 from rig.turntable.status import AxisStatus, TableStatus, decode_axis, int_to_words, words_to_int
 from rig.trapezoid import trapezoid
@@ -46,7 +47,8 @@ class TurntableLink:
         self.poll_interval = poll_interval
         self.retries = retries
         self.device_id = self.profile.device_id if device_id is None else device_id
-        self.channel = ModbusChannel(parse_url(url), self.device_id, self.clock, timeout, retries)
+        self.channel = ModbusChannel(parse_url(url), self.device_id, self.clock, timeout, retries,
+                                     device="turntable", errors=LINK_ERRORS)
         self.axes = tuple(range(len(self.profile.axis_bases)))
 
     # ---- connection -------------------------------------------------------------------------------

@@ -7,24 +7,7 @@ from the message alone whether to power-cycle, re-home or fix a profile.
 from __future__ import annotations
 
 from rig.errors import RigError
-
-# Modbus Application Protocol V1.1b3, section 7 (exception codes)
-MODBUS_EXCEPTION_NAMES = {
-    0x01: "ILLEGAL_FUNCTION",
-    0x02: "ILLEGAL_DATA_ADDRESS",
-    0x03: "ILLEGAL_DATA_VALUE",
-    0x04: "SERVER_DEVICE_FAILURE",
-    0x05: "ACKNOWLEDGE",
-    0x06: "SERVER_DEVICE_BUSY",
-    0x08: "MEMORY_PARITY_ERROR",
-    0x0A: "GATEWAY_PATH_UNAVAILABLE",
-    0x0B: "GATEWAY_TARGET_DEVICE_FAILED_TO_RESPOND",
-}
-
-
-def exception_label(code: int) -> str:
-    """'ILLEGAL_DATA_ADDRESS (02)'."""
-    return f"{MODBUS_EXCEPTION_NAMES.get(code, 'UNKNOWN_EXCEPTION')} ({code:02X})"
+from rig.modbus import errors as link
 
 
 class TurntableError(RigError):
@@ -39,11 +22,11 @@ class ProfileError(TurntableError, ValueError):
         super().__init__(f"turntable profile {self.file}: key '{key}': {message}")
 
 
-class CommunicationError(TurntableError):
+class CommunicationError(TurntableError, link.CommunicationError):
     """No usable answer from the table after all retries (timeout, garbled frame, link down)."""
 
 
-class ResponseLost(CommunicationError):
+class ResponseLost(CommunicationError, link.ResponseLost):
     """A non-idempotent write got no answer; whether the device acted on it is unknown."""
 
 
@@ -51,14 +34,11 @@ class IdentityError(TurntableError):
     """The device at the URL is not a turntable speaking the profile's map."""
 
 
-class ModbusExceptionError(TurntableError):
-    """The device answered with a Modbus exception response."""
+class ModbusExceptionError(TurntableError, link.ModbusExceptionError):
+    """The table answered with a Modbus exception response."""
 
-    def __init__(self, code: int, function: int, register: str, address: int, context: str = "") -> None:
-        self.code, self.function, self.register, self.address = code, function, register, address
-        self.name = MODBUS_EXCEPTION_NAMES.get(code, "UNKNOWN_EXCEPTION")
-        where = f"FC{function:02d} {register} @0x{address:04X}"
-        super().__init__(f"{where}: {exception_label(code)}" + (f"; {context}" if context else ""))
+
+LINK_ERRORS = link.LinkErrors(CommunicationError, ResponseLost, ModbusExceptionError)
 
 
 class MoveRejected(TurntableError):

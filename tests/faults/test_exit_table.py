@@ -189,7 +189,7 @@ def _(tmp):
 @case(4, "a second calibrate into a folder another process records into")
 def _(tmp):
     out = tmp / "s"
-    with Background("calibrate", "--sim", "--orientations", "9", "--time-scale", "10", "--no-progress", "--out",
+    with Background("calibrate", "--sim", "--orientations", "9", "--time-scale", "1", "--no-progress", "--out",
                     out) as first:
         wait_for(lambda: (out / "session.sqlite").exists(), "the first session started")
         time.sleep(0.5)
@@ -197,13 +197,16 @@ def _(tmp):
         exported = rig("export", out, "--to", tmp / "e")
         calibrated = rig("calibrate", "--from", out, "--out", tmp / "c")
         into_it = rig("calibrate", "--from", tmp / "e", "--out", out)
-        first.proc.wait(timeout=300)
+        still_recording = first.proc.poll() is None
+        first.proc.send_signal(signal.SIGTERM)
+        first.proc.wait(timeout=120)
+    assert still_recording, "the first session ended before the others were tried: the case tested nothing"
     assert done.returncode == 4 and f"pid {first.proc.pid}" in done.stderr, done.stderr
     assert "rig resume" not in done.stderr
     assert exported.returncode == 0 and "still being recorded" in exported.stderr, exported.stderr
     assert "still being recorded" in calibrated.stderr and "not the whole session" in calibrated.stderr
     assert into_it.returncode == 4 and "being recorded there" in into_it.stderr, into_it.stderr
-    assert first.proc.returncode == 0 and status(out) == "complete"
+    assert first.proc.returncode == 143 and status(out) == "aborted", (first.proc.returncode, status(out))
 
 
 @case(4, "sim-turntable on a port another process holds")

@@ -15,8 +15,8 @@ import serial
 from pymodbus.exceptions import ConnectionException, ModbusException
 
 from rig.clock import Clock
-from rig.turntable.errors import CommunicationError, ModbusExceptionError, ResponseLost
-from rig.turntable.url import LinkAddress, make_client
+from rig.modbus.errors import LinkErrors
+from rig.modbus.url import LinkAddress, make_client
 
 # pymodbus logs every failure it also reports by its return value or exception; the link reports each once, with
 # its cause, so pymodbus's own lines ("Repeating....") are not passed on to the terminal.
@@ -27,10 +27,13 @@ log = logging.getLogger(__name__)
 
 
 class ModbusChannel:
-    """FC03 / FC06 / FC16 to one device id; raises `ModbusExceptionError` or `CommunicationError`."""
+    """FC03 / FC06 / FC16 to one device id; raises the `errors` classes' `modbus_exception` or
+    `communication` (a lost reply to a non-idempotent write: `response_lost`). `device` names what is
+    behind the link ("turntable", "chamber") in messages and log lines."""
 
     def __init__(self, address: LinkAddress, device_id: int, clock: Clock, timeout: float, retries: int,
-                 backoff_s: float = 0.05, backoff_max_s: float = 1.0) -> None:
+                 backoff_s: float = 0.05, backoff_max_s: float = 1.0, device: str = "device",
+                 errors: LinkErrors = LinkErrors()) -> None:
         if retries < 0:
             raise ValueError(f"retries must be >= 0, got {retries}")
         if not timeout > 0:
@@ -38,6 +41,7 @@ class ModbusChannel:
         self.address, self.device_id, self.clock = address, device_id, clock
         self.timeout, self.retries = timeout, retries
         self.backoff_s, self.backoff_max_s = backoff_s, backoff_max_s
+        self.device, self.errors = device, errors
         self.client = None
         self.requests = 0
         self.failures = 0
@@ -50,7 +54,7 @@ class ModbusChannel:
         """Connect, retrying with backoff (a table may still be booting); a serial device that does not exist
         or cannot be opened is refused at once, since waiting will not make it appear."""
         if self.address.scheme == "rtu":
-            _check_serial_device(self.address)
+            _check_serial_device(self.address, self.device, self.errors)
         self.client = make_client(self.address, self.timeout)
         for attempt in range(self.retries + 1):
             if self.client.connect():
@@ -59,7 +63,7 @@ class ModbusChannel:
                 self.backoff(attempt, f"connect to {self.address}")
         self.client = None
         cause = connect_cause(self.address, self.timeout)
-        raise CommunicationError(f"cannot connect to the turntable at {self.address}: {cause} "
+        raise self.errors.communication(f"cannot connect to the {self.device} at {self.address}: {cause} "
                                  f"({self.retries + 1} attempts)")
 
     def close(self) -> None:
@@ -84,7 +88,7 @@ class ModbusChannel:
     def _transact(self, fc: int, address: int, register: str, call: Callable, idempotent: bool,
                   count: int | None = None):
         if self.client is None:
-            raise CommunicationError(f"turntable link to {self.address} is not open")
+            raise self.errors.communication(f"{self.device} link to {self.address} is not open")
         attempts = self.retries + 1 if idempotent else 1
         problem = ""
         for attempt in range(attempts):
@@ -96,7 +100,7 @@ class ModbusChannel:
                 self._recover(exc)
             else:
                 if rr.isError():
-                    raise ModbusExceptionError(rr.exception_code, fc, register, address)
+                    raise self.errors.modbus_exception(rr.exception_code, fc, register, address)
                 if count is None or len(rr.registers) == count:
                     return rr
                 problem = f"response has {len(rr.registers)} registers, asked for {count}"
@@ -105,8 +109,8 @@ class ModbusChannel:
                 self.backoff(attempt, f"FC{fc:02d} {register} @0x{address:04X} ({problem})")
         where = f"FC{fc:02d} {register} @0x{address:04X} on {self.address}"
         if not idempotent:
-            raise ResponseLost(f"{where}: no valid response ({problem}); not re-sent")
-        raise CommunicationError(f"{where}: no valid response after {attempts} attempts ({problem})")
+            raise self.errors.response_lost(f"{where}: no valid response ({problem}); not re-sent")
+        raise self.errors.communication(f"{where}: no valid response after {attempts} attempts ({problem})")
 
     def _recover(self, exc: Exception) -> None:
         """Drop a TCP connection after a failure so a late reply cannot be taken for the next one's
@@ -116,17 +120,17 @@ class ModbusChannel:
 
     def backoff(self, attempt: int, what: str) -> None:
         delay = min(self.backoff_s * 2 ** attempt, self.backoff_max_s)
-        log.warning("turntable: %s failed, retry %d/%d in %.3f s", what, attempt + 1, self.retries, delay)
+        log.warning("%s: %s failed, retry %d/%d in %.3f s", self.device, what, attempt + 1, self.retries, delay)
         self.clock.sleep(delay)
 
 
-def _check_serial_device(address: LinkAddress) -> None:
+def _check_serial_device(address: LinkAddress, what: str, errors: LinkErrors) -> None:
     device = address.device
     if not os.path.exists(device):
-        raise CommunicationError(f"turntable at {address}: no such device {device} (is the adapter plugged in? "
+        raise errors.communication(f"{what} at {address}: no such device {device} (is the adapter plugged in? "
                                  "`ls /dev/tty*` lists the serial ports)")
     if not os.access(device, os.R_OK | os.W_OK):
-        raise CommunicationError(f"turntable at {address}: permission denied on {device} (add the user to the "
+        raise errors.communication(f"{what} at {address}: permission denied on {device} (add the user to the "
                                  "group that owns it, e.g. dialout)")
 
 
