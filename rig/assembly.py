@@ -25,6 +25,7 @@ import drivers
 from drivers.contract import Wiring
 from drivers.errors import DriverError
 from drivers.gpio import open_set_reset_line
+from drivers.tca9548a import TCA9548A, MuxChannel
 from fixtures.followed_table import FollowedTable, PolledTrack
 from fixtures.simrig import SimulatedHardware
 from fixtures.simslots import SimulatedSlots
@@ -183,22 +184,29 @@ def assemble_slots(config: RigConfig, *, simulate: bool, seed: int = 0, trial: i
         raise AssemblyError(f"{config.source}: --time-scale needs the simulated rig")
     clock: Clock = SimClock(time_scale=time_scale) if simulate else RealClock()
     configs = dict(config.slot_configs())
+    switches: dict[tuple[int, int], TCA9548A] = {}       # one driver per switch: its channel cache is the chip's
     with contextlib.ExitStack() as stack:
         hw = None
         if simulate:
             hw = stack.enter_context(SimulatedSlots(config, clock, seed=seed, trial=trial, effects=effects, run=run))
             configs = {name: slot.config for name, slot in hw.slots.items()}
         boards = {}
+        opened: dict[int, Any] = {}          # I2C bus number -> the bus opened once for every slot on it
         for slot in config.slots:
             cfg = configs[slot.name]
             if hw is not None:
                 wiring = hw.slots[slot.name].board.wiring()
+                upstream = hw.i2c[slot.i2c_bus]
             else:
-                if slot.mux is not None:
-                    raise AssemblyError(f"{config.source}: [[slots]] {slot.name} mux: the switch driver is not in "
-                                        "this build; put the slots on distinct addresses or buses")
                 names = {p.name for p in placements(cfg.board, cfg.chips)}
-                wiring = _real_wiring(cfg, clock, stack, names, open_i2c, open_spi, open_gpio)
+                wiring = _real_wiring(cfg, clock, stack, names, open_i2c, open_spi, open_gpio, buses=opened)
+                upstream = wiring.i2c
+            if slot.mux is not None and upstream is not None:
+                address, channel = slot.mux
+                switch = switches.get((slot.i2c_bus, address))
+                if switch is None:
+                    switch = switches[slot.i2c_bus, address] = TCA9548A(upstream, address, sleep=clock.sleep)
+                wiring.i2c = MuxChannel(upstream, switch, channel)
             try:
                 boards[slot.name] = build_board(cfg.board, wiring, chips=cfg.chips)
             except DriverError as e:
@@ -221,7 +229,7 @@ def _follow_delay(config: RigConfig) -> float:
 
 
 def _real_wiring(config: RigConfig, clock: Clock, stack: contextlib.ExitStack, real: set[str], open_i2c,
-                 open_spi, open_gpio) -> Wiring:
+                 open_spi, open_gpio, buses: dict[int, Any] | None = None) -> Wiring:
     open_i2c = open_i2c or drivers.open_i2c
     open_spi = open_spi or drivers.open_spi
     open_gpio = open_gpio or open_set_reset_line
@@ -230,8 +238,13 @@ def _real_wiring(config: RigConfig, clock: Clock, stack: contextlib.ExitStack, r
 
     i2c = None
     if any(p.bus == "i2c" for p in placements(config.board, config.chips) if p.name in real):
-        i2c = _open(f"I2C bus {i2c_bus} (/dev/i2c-{i2c_bus})", lambda: open_i2c(i2c_bus))
-        stack.callback(i2c.close)
+        if buses is not None and i2c_bus in buses:      # several slots on one bus share its one handle
+            i2c = buses[i2c_bus]
+        else:
+            i2c = _open(f"I2C bus {i2c_bus} (/dev/i2c-{i2c_bus})", lambda: open_i2c(i2c_bus))
+            stack.callback(i2c.close)
+            if buses is not None:
+                buses[i2c_bus] = i2c
 
     def spi(cs: int, mode: int, max_hz: int) -> Any:
         dev = _open(f"SPI bus {spi_bus} chip select {cs} (/dev/spidev{spi_bus}.{cs})",

@@ -291,3 +291,27 @@ def test_a_slots_folder_is_resumed_as_a_whole_not_one_slot(tmp_path) -> None:
         SessionOrchestrator(out / "a", Factory(), plots=False).resume()
     with pytest.raises(Exception, match="already exists"):
         SessionOrchestrator(out, Factory(), plots=False).start(config, RigSpec(True, 1))
+
+
+def test_slots_behind_one_switch_each_read_their_own_board() -> None:
+    """rig/configs/four-slots.toml: four boards at the same I2C addresses behind channels 0-3 of one TCA9548A. Each
+    slot's drivers read its own chips (each unit's gyro at rest reads its own bias, nearest its own truth; its
+    accelerometer, on the SPI ADC, too), and the switch is written as the channel changes, not on every transfer."""
+    config = load_config(Path(__file__).resolve().parents[2] / "rig" / "configs" / "four-slots.toml")
+    with assemble_slots(config, simulate=True, seed=5) as rig:
+        for board in rig.boards.values():
+            board.start()
+        expected = {"gyro": {}, "accel": {}}
+        for name in rig.boards:
+            truth = rig.truth_fns[name]()["sensors"]
+            for kind, u in (("gyro", [0.0, 0.0, 0.0]), ("accel", [0.0, 0.0, config.gravity_mps2])):
+                H, B = np.array(truth[kind]["H"]), np.array(truth[kind]["B"])
+                expected[kind][name] = np.linalg.solve(H, u) + B        # y = inv(H) u + B, counts
+        switch = rig.sim.switches[1, 0x70]
+        before = switch.writes
+        for kind in ("gyro", "accel"):
+            for name, board in rig.boards.items():
+                y = np.mean([board.triads[kind].read_raw() for _ in range(50)], axis=0)
+                nearest = min(expected[kind], key=lambda other: np.linalg.norm(expected[kind][other] - y))
+                assert nearest == name, (kind, name, y, expected[kind])
+        assert len(rig.boards) <= switch.writes - before < 50
