@@ -14,7 +14,7 @@ import re
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Mapping
 
-from rig.board import BUS_KEYS, placements
+from rig.board import BUS_KEYS, CLOCK_KEYS, placements
 from rig.boards import BOARDS
 
 SLOT_KEYS = ("name", "board", "serial", "lever_arm_m", "mount_deg", "i2c_bus", "spi_bus", "mux", "chips")
@@ -113,10 +113,10 @@ def _slot(table: dict, index: int, unit_board: str, unit_chips: Mapping, where: 
     chips = table.get("chips", {})
     if not isinstance(chips, dict):
         raise ValueError(f"{where}: {label} chips = {chips!r} must be a table ([slots.chips.<part>])")
-    bad_bus = set(chips) & set(BUS_KEYS)
+    bad_bus = set(chips) & set(BUS_KEYS + CLOCK_KEYS)
     if bad_bus:
         raise ValueError(f"{where}: {label} [slots.chips] {sorted(bad_bus)[0]}: a slot's buses are its own keys "
-                         f"i2c_bus and spi_bus")
+                         f"i2c_bus and spi_bus; a bus's clock is [chips] i2c_clock_hz, for every slot")
     slot = SlotConfig(name, board, serial, lever, mount, buses["i2c_bus"], buses["spi_bus"], mux, dict(chips))
     try:
         placements(board, slot_chips(slot, unit_board, unit_chips))
@@ -151,7 +151,8 @@ def _mux(value: Any, where: str) -> tuple[int, int]:
 
 def slot_chips(slot: SlotConfig, unit_board: str, unit_chips: Mapping) -> dict:
     """The slot's `[chips]` table: its buses, the unit's `[chips.<part>]` where the boards agree, then its own."""
-    chips: dict[str, Any] = {"i2c_bus": slot.i2c_bus, "spi_bus": slot.spi_bus}
+    chips: dict[str, Any] = {"i2c_bus": slot.i2c_bus, "spi_bus": slot.spi_bus,
+                             **{k: unit_chips[k] for k in CLOCK_KEYS if k in unit_chips}}
     if slot.board == unit_board:
         chips.update({k: dict(v) for k, v in unit_chips.items() if k not in BUS_KEYS and isinstance(v, Mapping)})
     for part, table in slot.chips.items():

@@ -4,12 +4,14 @@ every slot into its own calibration, a slot dropped when its chip goes silent, a
 from __future__ import annotations
 
 import json
+import re
 import math
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 from fixtures.motion import TableTrack
 from fixtures.simslots import SimulatedSlots
@@ -19,6 +21,7 @@ from procedures.slot_session import MANIFEST, SlotsOutcome
 from rig.assembly import assemble_slots
 from rig.clock import RealClock
 from rig.commands.common import show_slots_outcome
+from rig.commands.plan import plan
 from rig.config import load_config
 from rig.errors import InputError
 from rig.exits import Exit
@@ -315,3 +318,32 @@ def test_slots_behind_one_switch_each_read_their_own_board() -> None:
                 nearest = min(expected[kind], key=lambda other: np.linalg.norm(expected[kind][other] - y))
                 assert nearest == name, (kind, name, y, expected[kind])
         assert len(rig.boards) <= switch.writes - before < 50
+
+
+def _plan(path: Path):
+    return CliRunner().invoke(plan, ["--config", str(path)])
+
+
+def test_plan_counts_every_slot_on_the_bus_and_refuses_a_rate_it_cannot_carry(tmp_path) -> None:
+    """Four bsn boards behind one switch on I2C bus 1: the bus carries all their reads and the selects; at 100 kHz
+    that is more than a 10 ms tick (refused, naming the bus), at 400 kHz it fits, at about four boards' cost."""
+    text = (Path(__file__).resolve().parents[2] / "rig" / "configs" / "four-slots.toml").read_text()
+    slow = tmp_path / "slow.toml"
+    slow.write_text(text.replace("i2c_clock_hz = 400000", "i2c_clock_hz = 100000"))
+    refused = _plan(slow)
+    assert refused.exit_code == Exit.BAD_INPUT, refused.output
+    assert "I2C bus 1" in refused.output and "rate_hz = 100" in refused.output
+    fast = tmp_path / "fast.toml"
+    fast.write_text(text)
+    four = _plan(fast)
+    assert four.exit_code == 0, four.output
+    one = tmp_path / "one.toml"
+    one.write_text(text[:text.index('[[slots]]\nname = "s2"')])
+    single = _plan(one)
+
+    def i2c_ms(output: str) -> float:
+        return float(re.search(r"I2C bus 1: ([0-9.]+) ms", output).group(1))
+
+    assert 3.5 * i2c_ms(single.output) <= i2c_ms(four.output) <= 4.5 * i2c_ms(single.output), (four.output,
+                                                                                              single.output)
+    assert "4 slots" in four.output
