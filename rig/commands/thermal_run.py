@@ -18,7 +18,7 @@ import click
 from fixtures.chamber import ChamberServer, FakeChamber
 from fixtures.world.heat import truth_at, unit_thermal_effects
 from procedures.orchestrator import RigSpec
-from procedures.thermal_session import MANIFEST, ThermalOutcome, ThermalSession, step_line
+from procedures.thermal_session import MANIFEST, ThermalOutcome, ThermalSession
 from rig import assembly
 from rig.chamber.client import ChamberLink
 from rig.clock import RealClock, SimClock
@@ -111,7 +111,9 @@ def run_thermal_to(out: Path, config: RigConfig | None, *, sim: bool = False, se
             echo(f"step {data['step'] + 1}/{data['steps']}: soaked at {s.set_point_c:g} C in {s.duration_s:.0f} s "
                  f"(die {s.die_c:.2f} C, slope {s.slope_c_per_min:+.3f} C/min)")
         elif kind == "step":
-            echo(step_line(data["data"], data["steps"]))
+            step = data["data"]
+            echo(f"step {data['step'] + 1}/{data['steps']}: recorded at {step['set_point_c']:g} C in "
+                 f"{step['folder']}, verdict {step.get('verdict')}")
 
     session = ThermalSession(out, open_hardware, method=method, progress=bar, plots=plots, events=events)
     with late_stop_signals() as late:
