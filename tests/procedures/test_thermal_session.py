@@ -3,6 +3,7 @@ die truly settles, each step is an ordinary session, the model is written, the c
 that stops answering ends the run by name (exit 3) with everything kept, which `resume` finishes."""
 
 import json
+import signal
 from dataclasses import replace
 
 import numpy as np
@@ -13,6 +14,7 @@ from procedures.orchestrator import RigSpec
 from procedures.soak import soak, SoakSettings
 from procedures.thermal_session import MANIFEST
 from rig.commands.thermal_run import SimulatedThermalRig, builtin_thermal_config, run_thermal_to
+from rig.errors import StopSignal
 from rig.io.calibration_json import read_calibration, temperature_models_from_calibration, triads_from_calibration
 
 SETTINGS = SoakSettings(slope_c_per_min=0.1, window_s=60.0, poll_s=5.0, min_soak_s=120.0, max_soak_s=7200.0)
@@ -132,3 +134,41 @@ def test_a_chamber_that_stops_answering_ends_the_run_by_name_and_resume_finishes
     assert (out / manifest["steps"][0]["folder"] / "calibration.json").read_bytes() == kept
     assert len(manifest["steps"][1]["soaks"]) == 1              # the soak cut short by the fault is not counted
     assert "temperature_model" in read_calibration(out / "calibration.json")["sensors"]["gyro"]
+
+
+class StoppedWhileSoaking(SimulatedThermalRig):
+    """SIGTERM arrives while the first soak reads the chips' thermometer."""
+
+    def build_rig(self, config, spec):
+        rig = super().build_rig(config, spec)
+        read = rig.board.temperature
+        calls = []
+
+        def stopping():
+            calls.append(1)
+            if len(calls) == 10:
+                raise StopSignal(signal.SIGTERM)
+            return read()
+
+        rig.board.temperature = stopping
+        return rig
+
+
+def test_a_stop_signal_while_soaking_leaves_the_chamber_safe_and_the_session_resumable(tmp_path):
+    config = short_config([20.0, 40.0])
+    made = []
+
+    def hardware(config, spec):
+        made.append(StoppedWhileSoaking(config, spec))
+        return made[-1]
+
+    said = []
+    code = run_thermal_to(tmp_path / "t", config, sim=True, seed=1, progress=False,
+                          echo=lambda s, err=False: said.append(s), open_hardware=hardware)
+    assert code == 128 + signal.SIGTERM, said
+    manifest = json.loads((tmp_path / "t" / MANIFEST).read_text())
+    assert manifest["status"] == "aborted" and "SIGTERM" in manifest["status_reason"]
+    fake = made[0].fake
+    assert not fake.state.running                                         # made safe on the way out
+    assert fake.state.set_point == pytest.approx(fake.profile.ambient_c)
+    assert any(f"rig resume {tmp_path / 't'}" in line for line in said)
