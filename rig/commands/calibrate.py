@@ -200,6 +200,10 @@ def resume(session, method, store, no_progress, plots):
     """Finish an interrupted session: hold again at its last recorded orientation, record the rest, calibrate.
 
     Refused (exit 4) while another process works on the session or its turntable."""
+    if (session.resolve().parent / "thermal.json").is_file():
+        raise CommandError(f"{session}: a step of the thermal session in {session.resolve().parent}; resume that "
+                           f"(`rig resume {session.parent}`), which soaks the step's temperature again first",
+                           Exit.BAD_INPUT)
     with mirrored(session, store):
         if (session / "thermal.json").is_file():         # procedures.thermal_session.MANIFEST
             from rig.commands.thermal_run import run_thermal_to

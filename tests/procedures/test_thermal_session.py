@@ -172,3 +172,23 @@ def test_a_stop_signal_while_soaking_leaves_the_chamber_safe_and_the_session_res
     assert not fake.state.running                                         # made safe on the way out
     assert fake.state.set_point == pytest.approx(fake.profile.ambient_c)
     assert any(f"rig resume {tmp_path / 't'}" in line for line in said)
+
+
+def test_thermal_options_are_refused_by_name_before_anything_is_made(tmp_path):
+    from click.testing import CliRunner
+
+    from rig.cli import main
+
+    plain = tmp_path / "plain.toml"
+    plain.write_text('[unit]\nboard = "bsn"\n')
+    runner = CliRunner()
+    result = runner.invoke(main, ["calibrate", "--thermal", "--config", str(plain), "--out", str(tmp_path / "a")])
+    assert result.exit_code == 2 and "[thermal]" in result.output and not (tmp_path / "a").exists()
+    no_chamber = tmp_path / "no-chamber.toml"
+    no_chamber.write_text('[unit]\nboard = "bsn"\n[thermal]\nsteps_c = [10.0, 30.0]\n')
+    result = runner.invoke(main, ["calibrate", "--config", str(no_chamber), "--out", str(tmp_path / "b")])
+    assert result.exit_code == 2 and "[chamber]" in result.output and not (tmp_path / "b").exists()
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[thermal]\ndirection = "sideways"\n[chamber]\n')
+    result = runner.invoke(main, ["calibrate", "--config", str(bad), "--out", str(tmp_path / "c")])
+    assert result.exit_code == 2 and "direction" in result.output and str(bad) in result.output
