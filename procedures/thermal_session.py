@@ -23,7 +23,6 @@ time the chamber was in use: every soak plus every step's session, summed over t
 
 from __future__ import annotations
 
-import contextlib
 import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -33,7 +32,7 @@ import numpy as np
 
 from procedures.orchestrator import Outcome, RigFactory, RigSpec, SessionOrchestrator
 from procedures.session import write_json
-from procedures.soak import Soak, SoakSettings, soak
+from procedures.soak import SoakSettings, soak
 from rig.calibration.thermal import ThermalModel, ThermalStep, fit_thermal_model
 from rig.chamber.client import ChamberLink
 from rig.chamber.errors import ChamberError, CommunicationError
