@@ -3,6 +3,10 @@
 Ticks are scheduled on absolute times (t0 + k/rate) so waiting for data-ready never shifts the grid;
 the magnetometer is read every `mag_every` ticks and its other rows stay empty (NaN), as in the
 interchange layout. Temperature and supply are read at a few Hz and carried forward.
+
+The board may be the boards of several slots (`procedures.slots.SlotsBoard`): all are read on the one grid,
+temperature and supply become per-slot columns, and a slot whose chip is gone is dropped instead of ending the
+session.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ import numpy as np
 from drivers import DriverError
 from drivers.contract import DataReady, ReadsWhenReady
 from procedures.protocols import Board, Store
+from procedures.slots import SlotsBoard, triad_kind
 from rig.clock import Clock, sleep_until
 
 ABSENT_LIMIT_S = 1.0    # a sensor with no valid sample this long is gone (a cable, a dead chip), not glitching
@@ -23,8 +28,8 @@ ABSENT_LIMIT_S = 1.0    # a sensor with no valid sample this long is gone (a cab
 class Recording:
     t: np.ndarray
     samples: dict[str, np.ndarray]
-    temp_c: np.ndarray | None
-    vsupply_v: np.ndarray | None
+    temp_c: np.ndarray | dict | None         # a dict slot -> column when the board is a `SlotsBoard`
+    vsupply_v: np.ndarray | dict | None
     late_reads: int = 0
 
 
@@ -41,22 +46,26 @@ class Sampler:
     skipped_ticks: int = 0
     read_errors: list = field(default_factory=list)
     _last_good: dict = field(default_factory=dict)
+    gone: set = field(default_factory=set)      # triads of dropped slots: rows stay empty
 
     def __post_init__(self) -> None:
         self.dt = 1.0 / self.rate_hz
         self.t0 = self.clock.now()
         self._names = list(self.board.triads)
+        self._is_mag = {n: triad_kind(n) == "mag" for n in self._names}
         self._ready = {n: tr.data_ready if isinstance(tr, DataReady) else None for n, tr in self.board.triads.items()}
         self._burst = {n: tr.read_if_ready if isinstance(tr, ReadsWhenReady) else None
                        for n, tr in self.board.triads.items()}
-        self._temp = self._supply = float("nan")
+        self._slots = isinstance(self.board, SlotsBoard)
+        self._aux_of = (self.board.aux_readers() if self._slots
+                        else {None: (self.board.read_temperature, self.board.read_supply)})
+        self._aux_now = {key: (float("nan"), float("nan")) for key in self._aux_of}
         self._begin()
 
     def _begin(self) -> None:
         self._t: list[float] = []
         self._rows: dict[str, list] = {n: [] for n in self._names}
-        self._temps: list[float] = []
-        self._supplies: list[float] = []
+        self._aux_rows: dict = {key: ([], []) for key in self._aux_of}
 
     def tick(self) -> None:
         """Wait for the next grid time and read every sensor due; stamped with the clock time of the reads.
@@ -76,16 +85,21 @@ class Sampler:
         stamp = self.stamp(self.clock.now())
         nan3 = (np.nan, np.nan, np.nan)
         for name in self._names:
-            if name == "mag" and self._k % self.mag_every:
+            if (self._is_mag[name] and self._k % self.mag_every) or name in self.gone:
                 self._rows[name].append(nan3)
                 continue
             self._rows[name].append(self._read_when_ready(name, stamp))
-        if self._k % self.aux_every == 0:
-            temp, supply = self._aux(self.board.read_temperature, stamp), self._aux(self.board.read_supply, stamp)
-            self._temp = float("nan") if temp is None else temp
-            self._supply = float("nan") if supply is None else supply
-        self._temps.append(self._temp)
-        self._supplies.append(self._supply)
+        for key, (read_temperature, read_supply) in self._aux_of.items():
+            if self._k % self.aux_every == 0:
+                if key is not None and key in self.board.dropped:
+                    self._aux_now[key] = (float("nan"), float("nan"))
+                else:
+                    temp, supply = self._aux(read_temperature, stamp, key), self._aux(read_supply, stamp, key)
+                    self._aux_now[key] = (float("nan") if temp is None else temp,
+                                          float("nan") if supply is None else supply)
+            temps, supplies = self._aux_rows[key]
+            temps.append(self._aux_now[key][0])
+            supplies.append(self._aux_now[key][1])
         self._t.append(stamp)
         self._k += 1
 
@@ -119,7 +133,11 @@ class Sampler:
                 if attempt == 2:
                     self.read_errors.append((stamp, f"{name}: {e}"))
                     silent = stamp - self._last_good.setdefault(name, stamp)
-                    if silent >= ABSENT_LIMIT_S:
+                    if silent >= ABSENT_LIMIT_S and self._slots:
+                        slot = name.split("/", 1)[0]
+                        self.gone.update(self.board.drop(slot, f"slot {slot}: {triad_kind(name)} stopped answering "
+                                                               f"(no valid sample for {silent:.2f} s: {e})"))
+                    elif silent >= ABSENT_LIMIT_S:
                         e.add_note(f"{name}: no valid sample for {silent:.2f} s")
                         raise
             else:
@@ -127,11 +145,11 @@ class Sampler:
                 return value
         return (np.nan, np.nan, np.nan)
 
-    def _aux(self, read, stamp: float):
+    def _aux(self, read, stamp: float, slot: str | None = None):
         try:
             return read()
         except DriverError as e:
-            self.read_errors.append((stamp, f"temperature/supply: {e}"))
+            self.read_errors.append((stamp, ("" if slot is None else f"{slot}/") + f"temperature/supply: {e}"))
             return None
 
     def _wait_ready(self, name: str) -> None:
@@ -157,9 +175,19 @@ class Sampler:
         found coarsely, then again finely one period later. Returns False (grid unchanged) when the chip
         has no data-ready flag or no edge shows within two periods.
         """
+        if name not in self._ready:     # several slots: the first slot's triad of that kind sets the grid
+            name = next((n for n in self._names if triad_kind(n) == name and n not in self.gone), name)
         ready = self._ready.get(name)
         if ready is None:
             return False
+        if self._slots:             # that slot's chip failing now is its own end (`_read`), not the session's
+            try:
+                return self._align(ready, margin_s)
+            except DriverError:
+                return False
+        return self._align(ready, margin_s)
+
+    def _align(self, ready, margin_s: float) -> bool:
         edge = self._edge(ready, self.dt / 20, 2 * self.dt)
         if edge is None:
             return False
@@ -193,9 +221,14 @@ class Sampler:
 
     def take(self) -> Recording:
         """Everything since the last take, as arrays; the tick grid continues."""
+        columns = {key: tuple(None if np.isnan(c).all() else np.array(c) for c in cols)
+                   for key, cols in self._aux_rows.items()}
+        if self._slots:
+            temp_c, vsupply_v = ({key: c[0] for key, c in columns.items()}, {key: c[1] for key, c in columns.items()})
+        else:
+            temp_c, vsupply_v = columns[None]
         rec = Recording(np.array(self._t), {n: np.array(v, dtype=float).reshape(-1, 3) for n, v in self._rows.items()},
-                        None if np.isnan(self._temps).all() else np.array(self._temps),
-                        None if np.isnan(self._supplies).all() else np.array(self._supplies), self.late_reads)
+                        temp_c, vsupply_v, self.late_reads)
         self._begin()
         return rec
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from procedures.acquisition import Recording
 from procedures.protocols import Store
+from procedures.slots import triad_kind
 from rig.outliers import OUTLIER_SIGMAS, isolated_outliers
 
 
@@ -44,10 +45,8 @@ def hold_has_motion(rec: Recording, *, window_s: float = 0.5, rate_hz: float = 1
     judged (`hold_outliers` counts them), while a knock rings over too many samples to be set aside.
     """
     n_win = max(int(window_s * rate_hz), 2)
-    for name in ("gyro", "accel"):
-        y = rec.samples.get(name)
-        if y is None:
-            continue
+    for name in [n for kind in ("gyro", "accel") for n in rec.samples if triad_kind(n) == kind]:
+        y = rec.samples[name]
         y = y[~np.isnan(y).any(axis=1)]
         y = y[~isolated_outliers(y)]
         m = len(y) // n_win

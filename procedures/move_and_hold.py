@@ -23,6 +23,7 @@ from procedures.hold_quality import HoldTarget, hold_has_motion, log_outliers
 from rig.schedule import Orientation
 from procedures.protocols import Board, Store, Table
 from procedures.reference import interpolate_angles
+from procedures.slots import triad_kind
 from rig.clock import Clock
 from rig.config import ScheduleConfig, TurntableConfig
 from rig.errors import RigError
@@ -190,7 +191,7 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
     vel.append((0.0, 0.0))
     table_deg = interpolate_angles(rec.t, t_pos, pos, vel)
     log_read_errors(store, sampler)
-    hole = gyro_hole(rec, table_deg, 1.0 / m.schedule.rate_hz, m.table.tolerance_deg)
+    hole = gyro_hole(rec, table_deg, 1.0 / m.schedule.rate_hz, m.table.tolerance_deg, skip=sampler.gone)
     if strict and hole is not None:
         raise StepSpoiled(f"the gyro has no samples for {hole[0]:.3f} s of the move into hold {step + 1} while the "
                           f"table turned {hole[1]:.2f} deg (read errors or a retried table request)")
@@ -204,23 +205,28 @@ def _angles(statuses: list) -> tuple[float, float]:
     return tuple(st.position_deg for st in sorted(statuses, key=lambda st: st.axis))
 
 
-def gyro_hole(rec: Recording, table_deg: np.ndarray, dt: float, tolerance_deg: float) -> tuple[float, float] | None:
-    """(seconds, degrees) of the worst hole in a move's gyro stream, counted from the hold it leaves to the hold
-    it reaches, across which the table turned more than `tolerance_deg`; None if there is none.
+def gyro_hole(rec: Recording, table_deg: np.ndarray, dt: float, tolerance_deg: float,
+              skip=frozenset()) -> tuple[float, float] | None:
+    """(seconds, degrees) of the worst hole in a move's gyro streams (every slot's, but those in `skip`: dropped),
+    counted from the hold it leaves to the hold it reaches, across which the table turned more than
+    `tolerance_deg`; None if there is none.
 
     No interpolation knows the rate inside a hole: where the rate profile has a corner in it (the start or end
     of a turn, usually) the move's angle is off by up to a/8 h^2, at 360 deg/s^2 and 0.05 s already 0.1 deg."""
-    if "gyro" not in rec.samples or rec.t.size == 0:
-        return None
-    have = np.flatnonzero(~np.isnan(rec.samples["gyro"]).any(axis=1))
-    t = np.concatenate([[rec.t[0] - dt], rec.t[have], [rec.t[-1] + dt]])
-    angles = np.vstack([table_deg[:1], table_deg[have], table_deg[-1:]])
-    gaps, turned = np.diff(t), np.linalg.norm(np.diff(angles, axis=0), axis=1)
-    holes = np.flatnonzero((gaps > 1.5 * dt) & (turned > tolerance_deg))
-    if holes.size == 0:
-        return None
-    worst = holes[np.argmax(turned[holes])]
-    return float(gaps[worst]), float(turned[worst])
+    worst = None
+    for name in [n for n in rec.samples if triad_kind(n) == "gyro" and n not in skip]:
+        if rec.t.size == 0:
+            return None
+        have = np.flatnonzero(~np.isnan(rec.samples[name]).any(axis=1))
+        t = np.concatenate([[rec.t[0] - dt], rec.t[have], [rec.t[-1] + dt]])
+        angles = np.vstack([table_deg[:1], table_deg[have], table_deg[-1:]])
+        gaps, turned = np.diff(t), np.linalg.norm(np.diff(angles, axis=0), axis=1)
+        holes = np.flatnonzero((gaps > 1.5 * dt) & (turned > tolerance_deg))
+        if holes.size:
+            k = holes[np.argmax(turned[holes])]
+            if worst is None or turned[k] > worst[1]:
+                worst = (float(gaps[k]), float(turned[k]))
+    return worst
 
 
 def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geometry: TableGeometry,

@@ -28,7 +28,11 @@ from typing import Any, Callable, ContextManager
 import numpy as np
 
 from rig.schedule import Orientation
+from drivers.errors import DriverError
 from procedures.session import check_plan, plan_for, record, session_metadata, write_json
+from procedures.slot_session import (MANIFEST, RecordingRig, SlotsOutcome, is_slots_session, new_manifest,
+                                     read_manifest)
+from procedures.slots import DROPPED_EVENT, SlotsBoard, SlotStores
 from rig.config import RigConfig, config_from_dict
 from rig.errors import Busy, CalibrationError, InputError, RigError, signal_name
 from rig.locks import session_lock, table_lock
@@ -83,6 +87,7 @@ class Outcome:
     warnings: list[str] = field(default_factory=list)
     truth_lines: list[str] = field(default_factory=list)
     written: list[Path] = field(default_factory=list)
+    h_error_pct: dict[str, float] = field(default_factory=dict)   # simulated: each sensor's H error vs the truth
 
 
 class SessionOrchestrator:
@@ -99,7 +104,10 @@ class SessionOrchestrator:
     # -- a new session ---------------------------------------------------------------------------
     def start(self, config: RigConfig, spec: RigSpec, plan: dict | None = None) -> Outcome:
         """Plan, check, create and record a new session in the folder, then finish it. `plan`: what the planner
-        chose and predicted (`rig.planner.Plan.to_dict`), kept in the metadata beside what is achieved."""
+        chose and predicted (`rig.planner.Plan.to_dict`), kept in the metadata beside what is achieved.
+        A configuration of several slots records them all in one session (`SlotsOutcome`)."""
+        if config.slots:
+            return self._start_slots(config, spec, plan)
         schedule = plan_for(config)
         problems = check_plan(config, schedule)
         if problems:
@@ -134,7 +142,7 @@ class SessionOrchestrator:
     def _refuse_existing(self) -> None:
         """A folder that holds a session already: busy (4, the holder named) while another process runs it,
         else refused (2) pointing at `rig resume`, which then works."""
-        if (self.folder / SESSION_FILE).exists():
+        if (self.folder / SESSION_FILE).exists() or (self.folder / MANIFEST).exists():
             with session_lock(self.folder):
                 pass
             raise NotASession(f"{self.folder}: a session already exists here; finish it with `rig resume "
@@ -143,12 +151,17 @@ class SessionOrchestrator:
     # -- resuming --------------------------------------------------------------------------------
     def resume(self) -> Outcome:
         """Record what an interrupted session lacks (from its last hold, held again), then finish it."""
+        if is_slots_session(self.folder):
+            return self._resume_slots()
         if not (self.folder / SESSION_FILE).is_file():
             SessionStore.open(self.folder).close()          # raises NotASession naming what is wrong
         with contextlib.ExitStack() as held:
             held.enter_context(session_lock(self.folder))    # another process on it: refused, nothing touched
             store = held.enter_context(SessionStore.open(self.folder))
             meta = store.metadata
+            if meta.get("slot"):       # its table carried other slots: they are resumed together
+                raise InputError(f"{self.folder}: slot {meta['slot'].get('name')} of the session in "
+                                 f"{self.folder.parent}; resume every slot with `rig resume {self.folder.parent}`")
             if meta.get("status") in FINISHED_STATUSES:
                 raise InputError(f"{self.folder}: the session is already finished (status {meta['status']}, "
                                  f"verdict {meta.get('verdict', 'n/a')}); nothing to resume")
@@ -201,6 +214,180 @@ class SessionOrchestrator:
             return self._failed(store, exc, n, url=getattr(rig.table, "url", None))
         return None
 
+    # -- several slots ---------------------------------------------------------------------------
+    def _start_slots(self, config: RigConfig, spec: RigSpec, plan: dict | None) -> SlotsOutcome:
+        """One session folder per slot under the folder, the manifest beside them, every slot recorded on the
+        one schedule and tick grid, each calibrated on its own."""
+        schedule = plan_for(config)
+        problems = check_plan(config, schedule)
+        if problems:
+            raise PlanError("the schedule cannot excite every axis: " + "; ".join(problems))
+        self._refuse_existing()
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise NotASession(f"{self.folder}: cannot create the session folder: {exc.strerror}") from None
+        with contextlib.ExitStack() as held:
+            held.enter_context(session_lock(self.folder))
+            self._refuse_existing()
+            with table_lock(config.turntable.url), self.build_rig(config, spec) as rig:
+                board = self._started(rig.boards)
+                stores = {}
+                for slot in config.slots:
+                    folder = self.folder / slot.name
+                    folder.mkdir(exist_ok=True)
+                    held.enter_context(session_lock(folder))
+                    meta = self._slot_metadata(rig, slot, schedule, spec, plan)
+                    stores[slot.name] = held.enter_context(SessionStore.create(folder, meta))
+                    if "truth" in meta:
+                        write_json(folder / "truth.json", meta["truth"])
+                write_json(self.folder / MANIFEST, new_manifest(config, spec, rig.configs))
+                outcomes = self._record_slots(rig, board, stores, schedule, 0, resumed=False)
+            return self._finish_slots(stores, len(schedule), outcomes)
+
+    def _started(self, boards: dict) -> SlotsBoard:
+        """The slots' boards as one, each started; a slot whose chips do not answer is dropped, not the session."""
+        board = SlotsBoard(boards)
+        for name, one in boards.items():
+            try:
+                one.start()
+            except DriverError as exc:
+                board.drop(name, f"slot {name}: its chips did not start: {exc}")
+        return board
+
+    def _slot_metadata(self, rig, slot, schedule: list[Orientation], spec: RigSpec, plan: dict | None) -> dict:
+        config = rig.configs[slot.name]
+        meta = session_metadata(config, schedule, sim=spec.simulated, seed=spec.seed if spec.simulated else None,
+                                time_scale=spec.time_scale)
+        meta.update(trial=spec.trial, chips=rig.boards[slot.name].settings(),
+                    table_url=getattr(rig.table, "url", None), slot={**slot.to_dict(), "table": str(self.folder)})
+        if rig.truth_fns:
+            try:
+                meta["truth"] = rig.truth_fns[slot.name]()
+            except DriverError:
+                pass
+        if plan is not None:
+            meta["plan"] = plan
+        return meta
+
+    def _drop(self, store: SessionStore, why: str, t: float | None) -> None:
+        """A slot is recorded no more: the event and the status say why; its recorded holds stay."""
+        try:
+            store.log_event(DROPPED_EVENT, why, t)
+        except RigError:
+            pass
+        self._mark(store, "failed", f"dropped: {why}; not calibrated, its recorded holds are kept", slot_dropped=why)
+
+    def _record_slots(self, rig, board: SlotsBoard, stores: dict, schedule: list[Orientation], start: int, *,
+                      resumed: bool) -> dict:
+        """Record holds `start..` of every live slot; {} when all are recorded, else each live slot's Outcome of
+        the stop or fault that ended the session."""
+        n = len(schedule)
+        fan = SlotStores(stores, board, on_drop=lambda slot, why, t: self._drop(stores[slot], why, t))
+        live = fan.live()
+        try:
+            for name in live:
+                stores[name].set_status("running", "resumed" if resumed else "")
+            t0 = 0.0
+            if resumed:
+                lasts = {name: stores[name].last_time() for name in live}
+                known = [t for t in lasts.values() if t is not None]
+                t0 = max(known) + RESUME_GAP_S if known else 0.0
+                for name in live:
+                    stores[name].mark_resume(t0, lasts[name], f"rig resume, from hold {start} (held again)")
+            if not live:
+                return {}
+            stats = record(RecordingRig(rig.table, board, rig.clock, rig.config), fan, schedule, start_step=start,
+                           session_t0=t0, progress=self.progress)
+            for name in fan.live():
+                stores[name].update_metadata(acquisition=_added(stores[name].metadata.get("acquisition"), stats))
+        except KeyboardInterrupt as exc:
+            signum = getattr(exc, "signum", signal.SIGINT)
+            reason = f"stopped by {signal_name(signum)}; the table was stopped and disabled"
+            fan.live()                  # a slot dropped just before is told so first
+            return {name: Outcome(self.folder / name, "aborted", self._mark(stores[name], "aborted", reason),
+                                  holds=len(stores[name].completed_holds()), n_holds=n, signum=signum)
+                    for name in board.live()}
+        except Exception as exc:
+            url = getattr(rig.table, "url", None)
+            fan.live()
+            return {name: SessionOrchestrator(self.folder / name, self.build_rig)._failed(stores[name], exc, n,
+                                                                                         url=url)
+                    for name in board.live()}
+        return {}
+
+    def _finish_slots(self, stores: dict, n_holds: int, ended: dict) -> SlotsOutcome:
+        """Each live slot calibrated in its own folder (or the Outcome that ended it); a dropped slot's Outcome
+        says why it was dropped; the manifest gets the shared table time and every slot's end."""
+        outcome = SlotsOutcome(self.folder)
+        for name, store in stores.items():
+            dropped = store.metadata.get("slot_dropped")
+            if name in ended:
+                outcome.slots[name] = ended[name]
+            elif dropped:
+                outcome.slots[name] = Outcome(self.folder / name, "failed", store.metadata.get("status_reason", ""),
+                                              holds=len(store.completed_holds()), n_holds=n_holds)
+            else:
+                one = SessionOrchestrator(self.folder / name, self.build_rig, method=self.method, plots=self.plots)
+                outcome.slots[name] = one._finish(store, n_holds)
+        times = [t for t in (store.last_time() for store in stores.values()) if t is not None]
+        outcome.table_time_s = max(times) if times else None
+        try:
+            manifest = read_manifest(self.folder)
+            manifest.update(table_time_s=outcome.table_time_s, ended={
+                name: {"status": o.status, "verdict": o.verdict, "reason": o.reason} for name, o in
+                outcome.slots.items()})
+            write_json(self.folder / MANIFEST, manifest)
+        except (RigError, OSError):
+            pass
+        return outcome
+
+    def _resume_slots(self) -> SlotsOutcome:
+        """Every live slot's session continued from the last orientation all of them recorded (held again)."""
+        manifest = read_manifest(self.folder)
+        try:
+            config = config_from_dict(manifest["config"])
+            names = [s["name"] for s in manifest["slots"]]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"{self.folder / MANIFEST}: the manifest cannot be read back ({exc})") from None
+        with contextlib.ExitStack() as held:
+            held.enter_context(session_lock(self.folder))
+            stores = {}
+            for name in names:
+                held.enter_context(session_lock(self.folder / name))
+                stores[name] = held.enter_context(SessionStore.open(self.folder / name))
+            live = [name for name in names if not stores[name].metadata.get("slot_dropped")]
+            if all(stores[name].metadata.get("status") in FINISHED_STATUSES for name in live):
+                raise InputError(f"{self.folder}: every slot's session is already finished; nothing to resume")
+            first = stores[live[0]] if live else stores[names[0]]
+            try:
+                schedule = [Orientation(**o) for o in first.metadata["schedule"]]
+            except (KeyError, TypeError, ValueError) as exc:
+                raise InputError(f"{first.path}: the session's metadata cannot be read back ({exc})") from None
+            done = {name: stores[name].completed_holds() for name in live}
+            if all(d and max(d) + 1 >= len(schedule) for d in done.values()):
+                return self._finish_slots(stores, len(schedule), {})
+            start = min(max(d) if d else 0 for d in done.values())
+            for name in live:
+                stores[name].keep_reserve()
+            rig_config = replace(config, slots=tuple(s for s in config.slots if s.name in live))
+            spec = RigSpec(bool(manifest.get("simulated")), manifest.get("seed"), manifest.get("time_scale"),
+                           int(manifest.get("trial") or 0), run=len(first.resume_times()) + 1)
+            with contextlib.ExitStack() as hardware:
+                try:
+                    hardware.enter_context(table_lock(config.turntable.url))
+                    rig = hardware.enter_context(self.build_rig(rig_config, spec))
+                    board = self._started(rig.boards)
+                except Busy:
+                    raise
+                except RigError as exc:
+                    for name in live:
+                        self._mark(stores[name], "failed", f"resume failed before recording: {exc}")
+                    raise
+                ended = self._record_slots(rig, board, {name: stores[name] for name in live}, schedule, start,
+                                           resumed=True)
+            return self._finish_slots(stores, len(schedule), ended)
+
     # -- finishing -------------------------------------------------------------------------------
     def _finish(self, store: SessionStore, n_holds: int) -> Outcome:
         """Calibrate what is recorded, write calibration.json and the report, record status and verdict."""
@@ -243,7 +430,7 @@ class SessionOrchestrator:
                        summary=list(result.summary), warnings=list(result.warnings) + survived(store) + figures,
                        truth_lines=truth_errors(result.sensors, truth, (meta.get("plan") or {}).get("predicted"))
                        if truth else [],
-                       written=[cal_path, report])
+                       written=[cal_path, report], h_error_pct=h_errors(result.sensors, truth) if truth else {})
 
     def _figures(self, session, result, report_args: dict, *, simulated: bool) -> list[str]:
         """Draw the report's figures, once the result is written and the status recorded (matplotlib is the slowest
@@ -328,6 +515,17 @@ def survived(store: SessionStore) -> list[str]:
         return []
     return ["recorded through " + ", ".join(f"{n} {SURVIVED[kind]}" for kind, n in counts.items())
             + f"; when and why are in the event table of {store.path}"]
+
+
+def h_errors(sensors: dict, truth: dict) -> dict[str, float]:
+    """Each sensor's H error against the simulator's truth, per cent (Frobenius norm)."""
+    out = {}
+    for name, cal in sensors.items():
+        t = truth["sensors"].get(name)
+        if t:
+            H = np.array(t["H"])
+            out[name] = float(np.linalg.norm(cal.H - H) / np.linalg.norm(H) * 100)
+    return out
 
 
 def truth_errors(sensors: dict, truth: dict, predicted: dict | None = None) -> list[str]:

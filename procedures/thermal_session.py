@@ -125,6 +125,9 @@ class ThermalSession:
             raise ThermalInputError(f"{config.source}: no [thermal] section; a thermal session needs its steps")
         if config.chamber is None:
             raise ThermalInputError(f"{config.source}: no [chamber] section; a thermal session needs the chamber")
+        if config.slots:
+            raise ThermalInputError(f"{config.source}: a thermal session of several slots ([[slots]]) is not "
+                                    "supported; one unit per thermal session")
         if (self.folder / MANIFEST).exists() or (self.folder / SESSION_FILE).exists():
             raise NotASession(f"{self.folder}: a session already exists here; finish it with `rig resume "
                               f"{self.folder}` or choose another --out")

@@ -25,8 +25,10 @@ import drivers
 from drivers.contract import Wiring
 from drivers.errors import DriverError
 from drivers.gpio import open_set_reset_line
+from drivers.tca9548a import TCA9548A, MuxChannel
 from fixtures.followed_table import FollowedTable, PolledTrack
 from fixtures.simrig import SimulatedHardware
+from fixtures.simslots import SimulatedSlots
 from rig.board import SensorBoard, build_board, placements
 from rig.clock import Clock, RealClock, SimClock
 from rig.config import RigConfig
@@ -62,6 +64,30 @@ class Rig:
         self._stack.close()
 
     def __enter__(self) -> "Rig":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+@dataclass
+class SlotsRig:
+    """A table carrying several boards (`[[slots]]`): one clock and table, a board per slot (`boards[name]`), each
+    with the single-unit configuration its own session records (`configs[name]`) and, simulated, its truth."""
+
+    config: RigConfig
+    clock: Clock
+    table: Any
+    boards: dict[str, SensorBoard]
+    configs: dict[str, RigConfig]
+    truth_fns: dict[str, Callable[[], dict]] | None = None
+    sim: Any = None
+    _stack: contextlib.ExitStack = field(default_factory=contextlib.ExitStack)
+
+    def close(self) -> None:
+        self._stack.close()
+
+    def __enter__(self) -> "SlotsRig":
         return self
 
     def __exit__(self, *exc) -> None:
@@ -150,6 +176,52 @@ def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0
                    _stack=stack.pop_all())
 
 
+def assemble_slots(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0,
+                   time_scale: float | None = None, effects=(), open_i2c=None, open_spi=None, open_gpio=None,
+                   run: int = 0) -> SlotsRig:
+    """The table and every slot's board: all simulated (`simulate`) or all real."""
+    mixed = [key for key in ("chips", "turntable") if key in config.sim]
+    if mixed:
+        raise BadSetting(f"{config.source}: [sim] {mixed[0]}: a session of [[slots]] is all simulated (--sim) or "
+                         "all real; mixing real and emulated parts is for one unit")
+    if not simulate and time_scale not in (None, 1.0):
+        raise AssemblyError(f"{config.source}: --time-scale needs the simulated rig")
+    clock: Clock = SimClock(time_scale=time_scale) if simulate else RealClock()
+    configs = dict(config.slot_configs())
+    switches: dict[tuple[int, int], TCA9548A] = {}       # one driver per switch: its channel cache is the chip's
+    with contextlib.ExitStack() as stack:
+        hw = None
+        if simulate:
+            hw = stack.enter_context(SimulatedSlots(config, clock, seed=seed, trial=trial, effects=effects, run=run))
+            configs = {name: slot.config for name, slot in hw.slots.items()}
+        boards = {}
+        opened: dict[int, Any] = {}          # I2C bus number -> the bus opened once for every slot on it
+        for slot in config.slots:
+            cfg = configs[slot.name]
+            if hw is not None:
+                wiring = hw.slots[slot.name].board.wiring()
+                upstream = hw.i2c[slot.i2c_bus]
+            else:
+                names = {p.name for p in placements(cfg.board, cfg.chips)}
+                wiring = _real_wiring(cfg, clock, stack, names, open_i2c, open_spi, open_gpio, buses=opened)
+                upstream = wiring.i2c
+            if slot.mux is not None and upstream is not None:
+                address, channel = slot.mux
+                switch = switches.get((slot.i2c_bus, address))
+                if switch is None:
+                    switch = switches[slot.i2c_bus, address] = TCA9548A(upstream, address, sleep=clock.sleep)
+                wiring.i2c = MuxChannel(upstream, switch, channel)
+            try:
+                boards[slot.name] = build_board(cfg.board, wiring, chips=cfg.chips)
+            except DriverError as e:
+                raise HardwareUnavailable(f"[[slots]] {slot.name}: {e}") from None
+            except ValueError as e:
+                raise BadSetting(f"{config.source}: [[slots]] {slot.name}: {e}") from None
+        link = stack.enter_context(_link(config, clock, hw.url if hw is not None else None))
+        truths = None if hw is None else {name: slot.truth for name, slot in hw.slots.items()}
+        return SlotsRig(config, clock, link, boards, configs, truths, hw, _stack=stack.pop_all())
+
+
 def _follow_delay(config: RigConfig) -> float:
     """Two poll intervals: the chips never need an angle not yet polled; the settle time must cover it."""
     delay = 2.0 * config.turntable.poll_every / config.schedule.rate_hz
@@ -161,7 +233,7 @@ def _follow_delay(config: RigConfig) -> float:
 
 
 def _real_wiring(config: RigConfig, clock: Clock, stack: contextlib.ExitStack, real: set[str], open_i2c,
-                 open_spi, open_gpio) -> Wiring:
+                 open_spi, open_gpio, buses: dict[int, Any] | None = None) -> Wiring:
     open_i2c = open_i2c or drivers.open_i2c
     open_spi = open_spi or drivers.open_spi
     open_gpio = open_gpio or open_set_reset_line
@@ -170,8 +242,13 @@ def _real_wiring(config: RigConfig, clock: Clock, stack: contextlib.ExitStack, r
 
     i2c = None
     if any(p.bus == "i2c" for p in placements(config.board, config.chips) if p.name in real):
-        i2c = _open(f"I2C bus {i2c_bus} (/dev/i2c-{i2c_bus})", lambda: open_i2c(i2c_bus))
-        stack.callback(i2c.close)
+        if buses is not None and i2c_bus in buses:      # several slots on one bus share its one handle
+            i2c = buses[i2c_bus]
+        else:
+            i2c = _open(f"I2C bus {i2c_bus} (/dev/i2c-{i2c_bus})", lambda: open_i2c(i2c_bus))
+            stack.callback(i2c.close)
+            if buses is not None:
+                buses[i2c_bus] = i2c
 
     def spi(cs: int, mode: int, max_hz: int) -> Any:
         dev = _open(f"SPI bus {spi_bus} chip select {cs} (/dev/spidev{spi_bus}.{cs})",
@@ -220,7 +297,11 @@ def truth_after_start(rig: Rig) -> dict | None:
 
 def build_rig(config: RigConfig, spec) -> Rig:
     """The rig factory a session orchestrator is given (`procedures.orchestrator.RigFactory`): the simulated rig
-    for a simulated spec (its seed, noise trial and time scale), else the real one."""
+    for a simulated spec (its seed, noise trial and time scale), else the real one; a `SlotsRig` for a
+    configuration of several slots."""
+    if config.slots:
+        return assemble_slots(config, simulate=spec.simulated, seed=spec.seed or 0, trial=spec.trial,
+                              time_scale=spec.time_scale, run=getattr(spec, "run", 0))
     if spec.simulated:
         return build_sim(config, seed=spec.seed or 0, trial=spec.trial, time_scale=spec.time_scale,
                          run=getattr(spec, "run", 0))

@@ -18,6 +18,7 @@ from rig.report.limits import LimitsError, validate_limits
 from rig.io.text_file import read_utf8
 from rig.rotations import TableGeometry
 from rig.sim_faults import SimFaults, checked_sim_faults, is_finite_number
+from rig.slot_config import SlotConfig, parse_slots, slot_config, slots_from_dicts
 from rig.chamber.profile import load_profile as load_chamber_profile
 from rig.turntable.profile import load_profile
 
@@ -103,11 +104,20 @@ class RigConfig:
     chamber: ChamberConfig | None = None           # [chamber]; None: no chamber on this rig
     thermal: ThermalConfig | None = None           # [thermal]; None: sessions at one temperature
     source: str = "<defaults>"
+    slots: tuple[SlotConfig, ...] = ()             # [[slots]]: several boards on the table; none: one unit
 
     def to_dict(self) -> dict:
         d = asdict(self)
         d["geometry"] = self.geometry.to_dict()
+        if self.slots:
+            d["slots"] = [s.to_dict() for s in self.slots]
+        else:
+            del d["slots"]          # a one-unit configuration's snapshot is what it always was
         return d
+
+    def slot_configs(self) -> dict[str, "RigConfig"]:
+        """Slot name -> the single-unit configuration its own session records (`rig.slot_config.slot_config`)."""
+        return {s.name: slot_config(self, s) for s in self.slots}
 
 
 def load_config(path: str | Path | None = None) -> RigConfig:
@@ -177,7 +187,8 @@ SECTIONS = {"unit": ("serial", "board", "operator"),
             "environment": ("gravity_mps2", "field_uT"),
             "turntable": None, "schedule": None, "limits": None, "chips": None,
             "sim": ("chips", "turntable", "table_link", "faults", *SIM_WORLD_KEYS), "store": ("url", "rig"),
-            "chamber": None, "thermal": None}
+            "chamber": None, "thermal": None, "slots": None}
+ARRAYS = ("slots",)         # arrays of tables ([[slots]]), checked by their own reader
 
 
 def _check_keys(raw: dict, where: str) -> None:
@@ -186,7 +197,7 @@ def _check_keys(raw: dict, where: str) -> None:
     if unknown:
         raise ValueError(f"{where}: unknown sections {sorted(unknown)}; allowed: {sorted(SECTIONS)}")
     for name in SECTIONS:        # `unit = "x"` instead of a [unit] table: its characters were read as its keys
-        if name in raw and not isinstance(raw[name], dict):
+        if name in raw and name not in ARRAYS and not isinstance(raw[name], dict):
             raise ValueError(f"{where}: {name} = {raw[name]!r} must be a table (a [{name}] section)")
     for name, keys in SECTIONS.items():
         if keys is not None and not set(raw.get(name, {})) <= set(keys):
@@ -307,6 +318,7 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
                     sim=dict(raw.get("sim", {})), store=dict(raw.get("store", {})), source=where)
     cfg.chamber = _section(raw, "chamber", ChamberConfig, where) if "chamber" in raw else None
     cfg.thermal = _thermal(raw, where) if "thermal" in raw else None
+    cfg.slots = parse_slots(raw.get("slots"), unit_board=board, chips=cfg.chips, where=where)
     for key, value in cfg.store.items():
         if not isinstance(value, str) or not value:
             raise ValueError(f"{where}: [store] {key} = {value!r} must be a non-empty string")
@@ -336,10 +348,13 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
         validate_limits(cfg.limits)
     except LimitsError as e:
         raise ValueError(f"{where}: [limits] {e}") from None
-    sensors = sorted(BOARD_SPECS[cfg.board].triads)
-    for sensor in cfg.limits:        # [limits.acel]: its limits were never checked and the verdict said PASS
-        if sensor not in sensors:
-            raise ValueError(f"{where}: [limits.{sensor}]: no such sensor; the {cfg.board} board has {sensors}")
+    for board in {cfg.board, *(s.board for s in cfg.slots)}:
+        sensors = sorted(BOARD_SPECS[board].triads)
+        for sensor in cfg.limits:    # [limits.acel]: its limits were never checked and the verdict said PASS
+            if sensor not in sensors:
+                raise ValueError(f"{where}: [limits.{sensor}]: no such sensor; the {board} board has {sensors}")
+    if cfg.slots:
+        _check_slots(cfg, where)
     return cfg
 
 
@@ -377,6 +392,20 @@ def thermal_set_points(t: ThermalConfig) -> list[float]:
     return points
 
 
+def _check_slots(cfg: RigConfig, where: str) -> None:
+    """What a session of several slots does not do (yet): refused before anything is built."""
+    if cfg.schedule.sequential:
+        raise ValueError(f"{where}: [schedule] sequential = true: sequential holds end on one unit's noise; a "
+                         "session of [[slots]] holds every orientation hold_s")
+    if cfg.sim.get("faults"):
+        raise ValueError(f"{where}: [sim.faults] names the parts of one board; with [[slots]] it is not supported")
+    for slot in cfg.slots:
+        try:
+            check_sim(slot.board, cfg.sim)
+        except ValueError as e:
+            raise ValueError(f"{where}: [[slots]] {slot.name}: {e}") from None
+
+
 def config_from_dict(d: dict) -> RigConfig:
     """Rebuild a configuration from its `to_dict()` snapshot (session metadata)."""
     g = d.get("geometry", {})
@@ -390,6 +419,9 @@ def config_from_dict(d: dict) -> RigConfig:
                      sim=d.get("sim", {}), store=d.get("store", {}), source=d.get("source", "<session metadata>"),
                      chamber=ChamberConfig(**d["chamber"]) if d.get("chamber") else None,
                      thermal=ThermalConfig(**d["thermal"]) if d.get("thermal") else None)
+
+
+                     slots=slots_from_dicts(d.get("slots") or []))
 
 
 def check_sim(board: str, sim: dict) -> None:

@@ -23,6 +23,7 @@ from rig.boards import BOARDS
 from rig.report.metrics import METRICS
 from rig.rotations import TableGeometry
 from rig.sim_faults import _FAULT_RANGES, MODBUS_EXCEPTION_CODES, SimFaults
+from rig.slot_config import LEVER_ARM_LIMIT_M, MUX_ADDRESSES, MUX_CHANNELS, SLOT_KEYS, SlotConfig
 
 MARKER = "<!-- generated: configuration-keys -->"
 
@@ -360,6 +361,31 @@ def generate() -> str:
     parts += ["## `[store]`", ""] + _table(
         [(key, "(none)", "a non-empty string", _meaning("store", key, used=used)) for key in cfg.SECTIONS["store"]])
     parts.append("")
+
+    # [[slots]]
+    rendered.add("slots")
+    comments = field_comments(SlotConfig)
+    lo, hi = MUX_ADDRESSES
+    slot_rows = {
+        "name": ("(required)", "letters, digits, `_`, `-`, `.`; up to 64"),
+        "board": ("[unit] board", ", ".join(f"`{name}`" for name in BOARDS)),
+        "serial": ('""', "a string"),
+        "lever_arm_m": ("[0.0, 0.0, 0.0]", f"three finite numbers, each within +-{number(LEVER_ARM_LIMIT_M)} (m)"),
+        "mount_deg": ("(none)", "three finite numbers, each within +-360 (deg)"),
+        "i2c_bus": ("[chips] i2c_bus", "a bus number (0, 1, ...)"),
+        "spi_bus": ("[chips] spi_bus", "a bus number (0, 1, ...)"),
+        "mux": ("(none)", f"`{{address = 0x{lo:02x}..0x{hi:02x}, channel = 0..{MUX_CHANNELS - 1}}}`"),
+        "chips": ("(none)", "one table per part, the keys of `[chips.<part>]`"),
+    }
+    if set(slot_rows) != set(SLOT_KEYS):
+        raise Missing(f"[[slots]] keys {sorted(set(SLOT_KEYS) ^ set(slot_rows))}: the page and rig.slot_config differ")
+    parts += ["## `[[slots]]`", "",
+              "Several boards on one table, recorded in one session ([slots guide](../guides/slots.md)): one "
+              "`[[slots]]` table per mounting slot. Without any, the configuration is one unit (`[unit]`). Each slot "
+              "is a unit of its own: a session folder per slot under `--out`, beside `slots.json`. Two parts at one "
+              "bus location (I2C bus and address, unless behind different channels of a switch; SPI bus and chip "
+              "select; GPIO line) are refused.", ""]
+    parts += _table([(key, slot_rows[key][0], slot_rows[key][1], comments[key]) for key in SLOT_KEYS]) + [""]
 
     unrendered = set(cfg.SECTIONS) - rendered
     if unrendered:

@@ -136,7 +136,7 @@ def run_session_to(out: Path, config: RigConfig | None, *, sim: bool = False, se
             if not _is_known(exc):
                 raise
             raise command_error(exc, prefix="" if resume else "cannot start the session: ") from None
-        code = show_outcome(outcome, echo)
+        code = show_slots_outcome(outcome, echo) if hasattr(outcome, "slots") else show_outcome(outcome, echo)
     if late:
         echo(f"{_signal_name(late[0])} came after the session had ended ({outcome.status}): nothing left to stop",
              err=True)
@@ -200,6 +200,34 @@ def show_outcome(outcome, echo=click.echo) -> int:
         return Exit.FAIL
     echo(f"verdict: {outcome.verdict}" + (" (no limits configured)" if outcome.verdict == "NOT CHECKED" else ""))
     return Exit.OK
+
+
+def show_slots_outcome(outcome, echo=click.echo) -> int:
+    """One line per slot (its end, its H error against the truth when simulated, its folder) and the shared table
+    time; exit 0 when every slot passed, 1 when any failed its limits or was dropped, a stop's or fault's code when
+    the session as a whole ended so."""
+    codes = []
+    for name, one in outcome.slots.items():
+        errors = ", ".join(f"{sensor} {pct:.3f} %" for sensor, pct in one.h_error_pct.items())
+        end = one.verdict if one.status in ("complete", "rejected") else one.status
+        echo(f"slot {name}: {end}" + (f"; H error vs truth: {errors}" if errors else "") + f"; {one.folder}")
+        if one.status in ("failed", "aborted") or one.verdict == "FAIL":
+            echo(f"  slot {name}: {plain(one.reason)} ({one.holds}/{one.n_holds} holds kept)", err=True)
+        for line in one.warnings:
+            echo(f"  warning: slot {name}: {line}", err=True)
+        if one.status == "aborted":
+            codes.append(aborted(one.signum))
+        elif one.status == "failed" and one.error is not None:
+            codes.append(Exit.INTERNAL if one.error_log is not None else code_for(one.error))
+        elif one.status == "failed" or one.verdict == "FAIL":
+            codes.append(Exit.FAIL)
+    if outcome.table_time_s is not None:
+        echo(f"table time: {outcome.table_time_s:.1f} s for {len(outcome.slots)} slots (shared)")
+    if any(o.status in ("failed", "aborted") and o.error is not None or o.status == "aborted"
+           for o in outcome.slots.values()):
+        echo(f"`rig resume {outcome.folder}` continues every slot still recorded", err=True)
+    faults = [c for c in codes if c != Exit.FAIL]
+    return faults[0] if faults else (Exit.FAIL if codes else Exit.OK)
 
 
 @contextlib.contextmanager

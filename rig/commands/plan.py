@@ -99,14 +99,39 @@ class StillWorld:
 
 def simulated_bus_loads(config):
     """The bus loads of the configuration's board, measured with its own drivers on emulated chips (the transfers
-    are the drivers', so they are the real board's too)."""
+    are the drivers', so they are the real board's too); of every slot's board on its bus, with the switch's
+    selects, for a configuration of slots."""
     from fixtures.simrig import SimulatedBoard
     from rig.bus_budget import tick_budget
     from rig.clock import SimClock
 
     clock = SimClock()
+    if config.slots:
+        return slots_bus_loads(config, clock)
     board = SimulatedBoard(config, clock, StillWorld())
     return tick_budget(config, board.wiring(), settle=lambda: clock.sleep(1.0 / config.schedule.rate_hz))
+
+
+def slots_bus_loads(config, clock):
+    """Every slot's reads in slot order on the one grid (`rig.bus_budget.tick_loads`): a slot behind a switch channel
+    costs a select where the channel changes."""
+    from fixtures.simrig import SimulatedBoard
+    from rig.board import build_board
+    from rig.bus_budget import TrafficLog, board_reads, bus_names, counting_wiring, tick_loads
+
+    reads = []
+    for slot in config.slots:
+        cfg = config.slot_configs()[slot.name]
+        log = TrafficLog()
+        i2c_name, spi_name = bus_names(cfg.chips)
+        board = build_board(cfg.board, counting_wiring(SimulatedBoard(cfg, clock, StillWorld()).wiring(), log,
+                                                       i2c_name, spi_name), chips=cfg.chips)
+        board.start()
+        for read in board_reads(board, log, mag_every=config.schedule.mag_every,
+                                settle=lambda: clock.sleep(1.0 / config.schedule.rate_hz)):
+            on_i2c = any(bus == i2c_name for bus, _ in read.transfers)
+            reads.append((i2c_name, read, slot.mux[1] if slot.mux is not None and on_i2c else None))
+    return tick_loads(reads, i2c_clock=i2c_clock_hz(config.chips))
 
 
 def bus_loads(config):
@@ -183,9 +208,10 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
         click.echo(f"  {load.bus}: {load.worst_tick_s * 1e3:.3g} ms = {load.load(s.rate_hz) * 100:.1f} % "
                    f"(mean {load.seconds_per_tick * s.rate_hz * 100:.1f} %), carries up to "
                    f"{load.max_rate_hz():g} Hz")
-    per_hour = units_per_hour(chosen.eta_s, s.mount_s, SLOTS)
-    click.echo(f"units per hour: {per_hour:.2f} ({SLOTS} slot x 3600 s / ({chosen.eta_s:.0f} s on the table + "
-               f"{s.mount_s:g} s mounting))")
+    slots = max(len(config.slots), SLOTS)
+    per_hour = units_per_hour(chosen.eta_s, s.mount_s, slots)
+    click.echo(f"units per hour: {per_hour:.2f} ({slots} slot{'s' if slots > 1 else ''} x 3600 s / "
+               f"({chosen.eta_s:.0f} s on the table + {s.mount_s:g} s mounting))")
     if json_out is not None:
         doc = {"plan": chosen.to_dict(), "default": default.to_dict(), "noise": noise.sigma,
                "noise_source": noise.source, "planning_s": round(planning_s, 3), "observability": problems,
