@@ -418,9 +418,7 @@ def config_from_dict(d: dict) -> RigConfig:
                      field_uT=d.get("field_uT", 50.0), limits=d.get("limits", {}), chips=d.get("chips", {}),
                      sim=d.get("sim", {}), store=d.get("store", {}), source=d.get("source", "<session metadata>"),
                      chamber=ChamberConfig(**d["chamber"]) if d.get("chamber") else None,
-                     thermal=ThermalConfig(**d["thermal"]) if d.get("thermal") else None)
-
-
+                     thermal=ThermalConfig(**d["thermal"]) if d.get("thermal") else None,
                      slots=slots_from_dicts(d.get("slots") or []))
 
 
