@@ -15,6 +15,7 @@ from procedures.soak import soak, SoakSettings
 from procedures.thermal_session import MANIFEST
 from rig.commands.thermal_run import SimulatedThermalRig, builtin_thermal_config, run_thermal_to
 from rig.errors import StopSignal
+from rig.store import SessionStore
 from rig.io.calibration_json import read_calibration, temperature_models_from_calibration, triads_from_calibration
 
 SETTINGS = SoakSettings(slope_c_per_min=0.1, window_s=60.0, poll_s=5.0, min_soak_s=120.0, max_soak_s=7200.0)
@@ -192,3 +193,48 @@ def test_thermal_options_are_refused_by_name_before_anything_is_made(tmp_path):
     bad.write_text('[thermal]\ndirection = "sideways"\n[chamber]\n')
     result = runner.invoke(main, ["calibrate", "--config", str(bad), "--out", str(tmp_path / "c")])
     assert result.exit_code == 2 and "direction" in result.output and str(bad) in result.output
+
+
+class StoppedMidStep(SimulatedThermalRig):
+    """SIGINT arrives while the first step's session records (the rig built second: after the first soak's)."""
+
+    built = 0
+
+    def build_rig(self, config, spec):
+        rig = super().build_rig(config, spec)
+        self.built += 1
+        if self.built == 2:
+            read, calls = rig.board.temperature, []
+
+            def stopping():
+                calls.append(1)
+                if len(calls) == 15:
+                    raise StopSignal(signal.SIGINT)
+                return read()
+
+            rig.board.temperature = stopping
+        return rig
+
+
+def test_a_step_stopped_mid_session_is_soaked_again_and_finished_by_the_orchestrators_resume(tmp_path):
+    config = short_config([15.0, 35.0])
+    out = tmp_path / "t"
+    said = []
+    code = run_thermal_to(out, config, sim=True, seed=8, progress=False, echo=lambda s, err=False: said.append(s),
+                          open_hardware=StoppedMidStep)
+    assert code == 128 + signal.SIGINT, said
+    manifest = json.loads((out / MANIFEST).read_text())
+    first = manifest["steps"][0]
+    assert manifest["status"] == "aborted" and first["status"] == "aborted"
+    with SessionStore.open(out / first["folder"]) as store:
+        held = len(store.completed_holds())
+    assert 0 < held < 9
+
+    code = run_thermal_to(out, None, resume=True, progress=False, echo=lambda s, err=False: said.append(s),
+                          open_hardware=SimulatedThermalRig)
+    assert code == 0, said
+    manifest = json.loads((out / MANIFEST).read_text())
+    first = manifest["steps"][0]
+    assert [s["status"] for s in manifest["steps"]] == ["complete"] * 2 and len(first["soaks"]) == 2
+    with SessionStore.open(out / first["folder"]) as store:
+        assert len(store.resume_times()) == 1 and len(store.completed_holds()) == 9     # resumed, not restarted
