@@ -123,17 +123,20 @@ def build_real(config: RigConfig, *, open_i2c=None, open_spi=None, open_gpio=Non
 
 
 def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: float | None = None,
-              effects=(), run: int = 0) -> Rig:
+              effects=(), run: int = 0, clock: Clock | None = None, temperature=None) -> Rig:
     """The simulated rig: everything the real one has, emulated, with the truth known.
 
     `effects` (from `fixtures.world.effects`) are hidden in the world, e.g. to test the discrepancy analysis;
     `run` says which run of a session this is ([sim.faults] timed faults happen in the first only, by default).
+    `clock` and `temperature(t)`: a thermal session's, shared with its fake chamber (the die's temperature).
     """
-    return assemble(config, simulate=True, seed=seed, trial=trial, time_scale=time_scale, effects=effects, run=run)
+    return assemble(config, simulate=True, seed=seed, trial=trial, time_scale=time_scale, effects=effects, run=run,
+                    clock=clock, temperature=temperature)
 
 
 def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0, time_scale: float | None = None,
-             effects=(), open_i2c=None, open_spi=None, open_gpio=None, run: int = 0) -> Rig:
+             effects=(), open_i2c=None, open_spi=None, open_gpio=None, run: int = 0, clock: Clock | None = None,
+             temperature=None) -> Rig:
     fake = fake_parts(config, simulate)
     table_fake = fake_turntable(config, simulate)
     names = {p.name for p in placements(config.board, config.chips)}
@@ -141,14 +144,15 @@ def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0
     if not all_fake and time_scale not in (None, 1.0):
         raise AssemblyError(f"{config.source}: --time-scale needs an all-simulated rig; with a real part "
                                   f"or table ([sim] section) the rig runs on real time")
-    clock: Clock = SimClock(time_scale=time_scale) if all_fake and simulate else RealClock()
+    if clock is None:
+        clock = SimClock(time_scale=time_scale) if all_fake and simulate else RealClock()
     with contextlib.ExitStack() as stack:
         hw = track = None
         if not table_fake and fake:
             track = PolledTrack(delay_s=_follow_delay(config))
         if fake or table_fake:
             hw = SimulatedHardware(config, clock, seed=seed, trial=trial, effects=effects, track=track, only=fake,
-                                   run=run)
+                                   run=run, temperature=temperature)
             stack.enter_context(hw)
         wirings = {}
         real = names - fake

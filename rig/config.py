@@ -52,6 +52,29 @@ class ChamberConfig:
 
 
 @dataclass
+class ThermalConfig:
+    """[thermal]: a thermal session's temperature steps, its soaks and each step's table schedule
+    (docs/guides/thermal-session.md). Set points are `steps_c`, or `steps` evenly from `low_c` to `high_c`;
+    `direction` "up", "down" or "up-down" (up, then down through the same points, the hottest once)."""
+    steps_c: list = field(default_factory=list)
+    low_c: float = 5.0
+    high_c: float = 45.0
+    steps: int = 3
+    direction: str = "up-down"
+    slope_c_per_min: float = 0.1       # soaked: the die's slope over `window_s` below this, C/min
+    window_s: float = 60.0             # the die temperature's slope is fitted over this much of the chips' readings
+    poll_s: float = 5.0                # between readings of the chips' thermometers while soaking
+    min_soak_s: float = 120.0          # never soaked sooner than this after the set point is written
+    max_soak_s: float = 7200.0         # not soaked in this long: a fault (the chamber or the fixture)
+    orientations: int = 0              # each step's schedule size; 0: [schedule] orientations
+    hold_s: float = 0.0                # each step's hold; 0: [schedule] hold_s
+    sim_hysteresis: bool = False       # the simulated unit carries a hysteresis between up and down sweeps
+
+
+THERMAL_DIRECTIONS = ("up", "down", "up-down")
+
+
+@dataclass
 class ScheduleConfig:
     orientations: int = 20
     hold_s: float = 5.0
@@ -79,6 +102,7 @@ class RigConfig:
     sim: dict = field(default_factory=dict)        # [sim]: which parts are emulated ("fake") or real
     store: dict = field(default_factory=dict)      # [store] url (the lab's store), rig (this rig's name in it)
     chamber: ChamberConfig | None = None           # [chamber]; None: no chamber on this rig
+    thermal: ThermalConfig | None = None           # [thermal]; None: sessions at one temperature
     source: str = "<defaults>"
     slots: tuple[SlotConfig, ...] = ()             # [[slots]]: several boards on the table; none: one unit
 
@@ -163,7 +187,7 @@ SECTIONS = {"unit": ("serial", "board", "operator"),
             "environment": ("gravity_mps2", "field_uT"),
             "turntable": None, "schedule": None, "limits": None, "chips": None,
             "sim": ("chips", "turntable", "table_link", "faults", *SIM_WORLD_KEYS), "store": ("url", "rig"),
-            "chamber": None, "slots": None}
+            "chamber": None, "thermal": None, "slots": None}
 ARRAYS = ("slots",)         # arrays of tables ([[slots]]), checked by their own reader
 
 
@@ -234,6 +258,16 @@ RANGES = {  # (section, key): (lowest, highest, why)
     ("chamber", "ramp_c_per_min"): (0.0, 100.0, "C/min; 0: step"),
     ("chamber", "timeout_s"): (0.01, 600.0, "seconds per request"),
     ("chamber", "poll_s"): (0.01, 600.0, "seconds"),
+    ("thermal", "low_c"): (-100.0, 250.0, "C"),
+    ("thermal", "high_c"): (-100.0, 250.0, "C"),
+    ("thermal", "steps"): (2, 100, "set points from low_c to high_c"),
+    ("thermal", "slope_c_per_min"): (1e-4, 10.0, "C/min"),
+    ("thermal", "window_s"): (1.0, 3600.0, "seconds"),
+    ("thermal", "poll_s"): (0.01, 600.0, "seconds"),
+    ("thermal", "min_soak_s"): (0.0, 86400.0, "seconds"),
+    ("thermal", "max_soak_s"): (1.0, 172800.0, "seconds"),
+    ("thermal", "orientations"): (0, 64, "0: [schedule] orientations; else 9..64"),
+    ("thermal", "hold_s"): (0.0, 3600.0, "seconds; 0: [schedule] hold_s"),
 }
 
 
@@ -283,6 +317,7 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
                     limits=dict(raw.get("limits", {})), chips=dict(raw.get("chips", {})),
                     sim=dict(raw.get("sim", {})), store=dict(raw.get("store", {})), source=where)
     cfg.chamber = _section(raw, "chamber", ChamberConfig, where) if "chamber" in raw else None
+    cfg.thermal = _thermal(raw, where) if "thermal" in raw else None
     cfg.slots = parse_slots(raw.get("slots"), unit_board=board, chips=cfg.chips, where=where)
     for key, value in cfg.store.items():
         if not isinstance(value, str) or not value:
@@ -323,6 +358,40 @@ def _from_dict(raw: dict, where: str) -> RigConfig:
     return cfg
 
 
+def _thermal(raw: dict, where: str) -> ThermalConfig:
+    """[thermal], its lists and choices checked beside the numbers `_section` checks."""
+    t = _section(raw, "thermal", ThermalConfig, where)
+    if not (isinstance(t.steps_c, list) and all(is_finite_number(v) for v in t.steps_c)):
+        raise ValueError(f"{where}: [thermal] steps_c = {t.steps_c!r} must be a list of temperatures in C")
+    t.steps_c = [float(v) for v in t.steps_c]
+    if t.steps_c and len(set(t.steps_c)) < 2:
+        raise ValueError(f"{where}: [thermal] steps_c = {t.steps_c!r}: a temperature model needs 2 or more "
+                         "distinct set points")
+    if not t.steps_c and not t.low_c < t.high_c:
+        raise ValueError(f"{where}: [thermal] low_c = {t.low_c!r} must be below high_c = {t.high_c!r}")
+    if t.direction not in THERMAL_DIRECTIONS:
+        raise ValueError(f"{where}: [thermal] direction = {t.direction!r}; allowed: {list(THERMAL_DIRECTIONS)}")
+    if not isinstance(t.sim_hysteresis, bool):
+        raise ValueError(f"{where}: [thermal] sim_hysteresis = {t.sim_hysteresis!r} must be true or false")
+    if t.orientations and t.orientations < 9:
+        raise ValueError(f"{where}: [thermal] orientations = {t.orientations}: 0 ([schedule]'s) or 9..64")
+    if t.max_soak_s < t.min_soak_s:
+        raise ValueError(f"{where}: [thermal] max_soak_s = {t.max_soak_s!r} is below min_soak_s = {t.min_soak_s!r}")
+    return t
+
+
+def thermal_set_points(t: ThermalConfig) -> list[float]:
+    """The set points of a thermal session in the order they are visited (`ThermalConfig`)."""
+    points = sorted(set(t.steps_c)) if t.steps_c else [float(v) for v in
+                                                 [t.low_c + (t.high_c - t.low_c) * k / (t.steps - 1)
+                                                  for k in range(t.steps)]]
+    if t.direction == "down":
+        return points[::-1]
+    if t.direction == "up-down":
+        return points + points[-2::-1]
+    return points
+
+
 def _check_slots(cfg: RigConfig, where: str) -> None:
     """What a session of several slots does not do (yet): refused before anything is built."""
     if cfg.schedule.sequential:
@@ -349,6 +418,7 @@ def config_from_dict(d: dict) -> RigConfig:
                      field_uT=d.get("field_uT", 50.0), limits=d.get("limits", {}), chips=d.get("chips", {}),
                      sim=d.get("sim", {}), store=d.get("store", {}), source=d.get("source", "<session metadata>"),
                      chamber=ChamberConfig(**d["chamber"]) if d.get("chamber") else None,
+                     thermal=ThermalConfig(**d["thermal"]) if d.get("thermal") else None,
                      slots=slots_from_dicts(d.get("slots") or []))
 
 

@@ -32,7 +32,8 @@ class EffectSpec:
     sensors: tuple[str, ...]          # "rig": the table itself, seen by every sensor
     unit: str                         # of the magnitude; "{unit}" is the sensor's reported unit (rig.units)
     cause: str
-    family: str = "model"             # "model": a candidate test on turntable sessions; "noise": the twin's
+    family: str = "model"             # "model": a candidate test on turntable sessions; "noise": the twin's;
+    #                                   "thermal": seen only across the temperature steps of a thermal session
     no_candidate: str = ""            # why no candidate test exists (empty: the analysis must have one)
 
     def unit_for(self, sensor: str, base: str | None = None) -> str:
@@ -78,6 +79,10 @@ EFFECTS: dict[str, EffectSpec] = {e.name: e for e in (
            "a fan, a vehicle), or a noise of the accelerometer's own in some poses"),
     _noise("saturation", TRIADS, "percent", "the output clips at its range"),
     _noise("warm_up", TRIADS, "{unit}", "the bias settling as the unit comes to temperature after power-on"),
+    EffectSpec("thermal_hysteresis", TRIADS, "{unit}", "the bias at a temperature depends on the side it was "
+               "approached from (packaging stress that relaxes with a lag)", family="thermal",
+               no_candidate="a session at one temperature cannot show it: only a thermal session's up and down "
+                            "sweeps can"),
 )}
 
 

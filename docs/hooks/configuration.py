@@ -39,6 +39,13 @@ MEANINGS = {
                               "default: the packaged `tt-map/1`",
     ("turntable", "speed_dps"): "the speed of every move, deg/s",
     ("chamber", "url"): "the chamber controller's line, in the form of the table's `url`",
+    ("thermal", "steps_c"): "the set points, C (in any order; each visited once per sweep); empty: `steps` from "
+                            "`low_c` to `high_c`",
+    ("thermal", "low_c"): "the coldest set point when `steps_c` is empty, C",
+    ("thermal", "high_c"): "the hottest set point when `steps_c` is empty, C",
+    ("thermal", "steps"): "how many set points from `low_c` to `high_c`, evenly",
+    ("thermal", "direction"): "`\"up\"` (coldest first), `\"down\"`, or `\"up-down\"` (up, then down through the "
+                              "same points, the hottest once)",
     ("turntable", "accel_dps2"): "the acceleration and deceleration of every move, deg/s^2",
     ("turntable", "tolerance_deg"): "the in-position window: how close to its target an axis must be, deg",
     ("turntable", "settle_s"): "time in position before a hold starts, s (with emulated chips following a real "
@@ -219,6 +226,13 @@ def generate() -> str:
               "section the rig has no chamber. Its profile is a chamber register profile "
               "([chamber map](chamber-map.md), [guide](../guides/chamber.md)).", ""]
     parts += _table(dataclass_rows("chamber", cfg.ChamberConfig)) + [""]
+
+    # [thermal]
+    rendered.add("thermal")
+    parts += ["## `[thermal]`", "", "A thermal session's temperature steps, soaks and each step's schedule "
+              "(`rig.config.ThermalConfig`); with the section `rig calibrate` runs a thermal session "
+              "([guide](../guides/thermal-session.md)). It needs a `[chamber]`.", ""]
+    parts += _table(dataclass_rows("thermal", cfg.ThermalConfig)) + [""]
 
     # [table]
     rendered.add("table")

@@ -55,9 +55,13 @@ from rig.exits import CommandError, Exit, FiniteFloat, command_error, plain
               help="Run the plan of `rig plan --target-h-pct`: the shortest predicted to reach this H error.")
 @click.option("--noise-from", type=click.Path(exists=True, file_okay=False), default=None,
               help="With --budget-s/--target-h-pct: the noise of a calibrated session of this unit.")
+@click.option("--thermal", is_flag=True,
+              help="A thermal session: soak at each temperature step of [thermal] (the built-in thermal "
+                   "configuration with --sim alone), a session per step, one temperature model. A --config with a "
+                   "[thermal] section runs one without it.")
 def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_s, out, seed, time_scale, method,
               orientations, gravity, settle_s, gyro_samples, holds_only, store, no_progress, plots, force, budget_s,
-              target_h_pct, noise_from):
+              target_h_pct, noise_from, thermal):
     """Run a calibration session and compute B and H of every sensor (or calibrate recorded data)."""
     if fmt != "imu_tk" and (units is not None or initial_rest_s is not None):
         raise click.UsageError("--units and --initial-rest-s say how imu_tk's files are read (--format imu_tk); a "
@@ -111,7 +115,24 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_
         raise click.UsageError("give --sim (simulated rig), --config rig.toml (real rig) or --from SESSION_DIR")
     if time_scale is not None and not sim:
         raise click.UsageError("--time-scale applies to --sim only")
-    config = rig_config(config_path, orientations)
+    if thermal:
+        from rig.commands.thermal_run import thermal_config
+
+        config = thermal_config(sim, config_path, orientations)
+    else:
+        config = rig_config(config_path, orientations)
+    if config.thermal is not None:
+        from rig.commands.thermal_run import run_thermal_to
+
+        if budget_s is not None or target_h_pct is not None or noise_from is not None:
+            raise click.UsageError("--budget-s, --target-h-pct and --noise-from plan one session; a thermal "
+                                   "session's steps take [thermal] orientations and hold_s")
+        if config.chamber is None:
+            raise CommandError(f"{config.source}: a thermal session needs a [chamber] section", Exit.BAD_INPUT)
+        with mirrored(out, store or config.store.get("url")):
+            code = run_thermal_to(out, config, sim=sim, seed=seed, time_scale=time_scale, method=method,
+                                  progress=not no_progress, plots=plots)
+        sys.exit(code)
     plan = None
     if budget_s is not None or target_h_pct is not None:
         from rig.commands.plan import planned_config, predicted_lines, refuse_orientations_with_planner
@@ -179,6 +200,15 @@ def resume(session, method, store, no_progress, plots):
     """Finish an interrupted session: hold again at its last recorded orientation, record the rest, calibrate.
 
     Refused (exit 4) while another process works on the session or its turntable."""
+    if (session.resolve().parent / "thermal.json").is_file():
+        raise CommandError(f"{session}: a step of the thermal session in {session.resolve().parent}; resume that "
+                           f"(`rig resume {session.parent}`), which soaks the step's temperature again first",
+                           Exit.BAD_INPUT)
     with mirrored(session, store):
-        code = run_session_to(session, None, method=method, progress=not no_progress, resume=True, plots=plots)
+        if (session / "thermal.json").is_file():         # procedures.thermal_session.MANIFEST
+            from rig.commands.thermal_run import run_thermal_to
+
+            code = run_thermal_to(session, None, method=method, progress=not no_progress, resume=True, plots=plots)
+        else:
+            code = run_session_to(session, None, method=method, progress=not no_progress, resume=True, plots=plots)
     sys.exit(code)
