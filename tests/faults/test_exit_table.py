@@ -41,6 +41,17 @@ def status(folder: Path) -> str:
         return store.status[0]
 
 
+def holds_recorded(folder: Path) -> int:
+    """Holds a session has stored so far (0 before its store exists): read as another process would."""
+    if not (folder / "session.sqlite").exists():
+        return 0
+    try:
+        with sqlite3.connect(f"file:{folder / 'session.sqlite'}?mode=ro", uri=True) as db:
+            return db.execute("SELECT count(*) FROM segment WHERE phase = 'hold'").fetchone()[0]
+    except sqlite3.OperationalError:     # the store being created
+        return 0
+
+
 def session(folder: Path, *extra) -> Path:
     done = rig("calibrate", "--sim", "--orientations", "9", "--time-scale", "50", "--no-progress", "--out", folder,
                *extra)
@@ -191,8 +202,7 @@ def _(tmp):
     out = tmp / "s"
     with Background("calibrate", "--sim", "--orientations", "9", "--time-scale", "1", "--no-progress", "--out",
                     out) as first:
-        wait_for(lambda: (out / "session.sqlite").exists(), "the first session started")
-        time.sleep(0.5)
+        wait_for(lambda: holds_recorded(out) > 0, "the first session's first hold", timeout=120)
         done = rig("calibrate", "--sim", "--orientations", "9", "--no-progress", "--out", out)
         exported = rig("export", out, "--to", tmp / "e")
         calibrated = rig("calibrate", "--from", out, "--out", tmp / "c")
