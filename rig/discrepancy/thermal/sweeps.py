@@ -12,7 +12,8 @@ so that a curve the model could follow is never read as a cause. The extensions:
 s_k = +1 on the up sweep, -1 on the down sweep, h the half-width of the hysteresis (one per term: B_up(T) =
 B(T) + h, B_down(T) = B(T) - h), r_k the die temperature's rate during the step's holds and tau the lag of the
 sensing element's temperature behind the thermometer's. The die temperature's spread sigma_Tk moves each term by
-its slope g_k (effective variance, Orear 1982, as rig.calibration.thermal.curves does). For a given tau the model
+its slope g_k (effective variance, Orear 1982, as rig.calibration.thermal.curves does; the slopes from a first fit
+with the sweep offset, so that an offset does not bend them). For a given tau the model
 is linear in the polynomials and h, solved by generalised least squares; tau is found by minimising the profile
 chi-square over a bracket, and its deviation from the linearised model at the minimum (the column
 dz_k/dtau = -r_k P'(T_k - r_k tau)), the covariance scaled by the reduced chi-square where that exceeds 1.
@@ -124,7 +125,8 @@ class SweepModel:
         self.d = d
         self.q_poly = 6 * (d.order + 1)
         self._weigh(d.C)
-        self.slopes = self._slopes(self._solve(0.0, False)[0], 0.0)
+        both_sweeps = bool(np.any(d.sign > 0) and np.any(d.sign < 0))
+        self.slopes = self._slopes(self._solve(0.0, both_sweeps)[0], 0.0)
         self._weigh(d.C + d.temp_std_c[:, None, None] ** 2 * np.einsum("ki,kj->kij", self.slopes, self.slopes))
 
     def _weigh(self, V: np.ndarray) -> None:
