@@ -147,3 +147,23 @@ def test_the_die_against_the_air_is_kept_as_evidence_by_sweep():
     ev = thermal_causes("gyro", steps).evidence
     assert ev["up"]["die_minus_air_c_mean"] < 0 < ev["down"]["die_minus_air_c_mean"]
     assert ev["up"]["steps"] + ev["down"]["steps"] == len(steps)
+
+
+def test_too_few_steps_for_the_curves_and_the_causes_are_not_tested_and_say_so():
+    hidden, steps = _hidden("gyro", 8, True, False)
+    causes = thermal_causes("gyro", [steps[i] for i in (0, 6, 12)])      # -10 up, 65 up, -10 down
+    assert causes.p == {} and not causes.findings
+    lines = report_lines(causes)
+    assert "not tested" in lines[0] and any("no degree of freedom" in line for line in lines)
+
+
+
+def test_a_short_session_up_and_down_through_three_set_points_still_sizes_the_hysteresis():
+    """5 steps leave 5 degrees of freedom: the hysteresis is found, named, or reported beside a lag it cannot
+    be told from; it is sized either way, and a lag is never named in its place."""
+    for seed in SEEDS:
+        hidden, steps = _hidden("gyro", 40 + seed, True, False)
+        few = thermal_causes("gyro", [steps[i] for i in (0, 3, 6, 9, 12)])
+        assert THERMAL_LAG not in few.named, (seed, few.p)
+        (f,) = [f for f in few.findings + few.undistinguished if f.effect == THERMAL_HYSTERESIS]
+        assert _in_small_units("gyro", f.magnitude) == pytest.approx(hidden.bias_magnitude, rel=TOLERANCE), seed

@@ -85,10 +85,15 @@ def thermal_causes(sensor: str, steps: list[SweptStep], alpha: float = ALPHA) ->
         notes.append("lag not tested: every step's die temperature rate is zero")
     if not (both_sweeps or rates_vary):
         return ThermalCauses(sensor, [], [], {}, float("inf"), notes, _evidence(steps))
+    full = model.fit(both_sweeps, rates_vary)
+    if full.dof < 1:
+        notes.append(f"not tested: {len(steps)} steps at {model.d.set_points} distinct set points leave no degree of "
+                     "freedom beside the curves and the causes; a session up and down through 3 or more set points "
+                     "has them")
+        return ThermalCauses(sensor, [], [], {}, float("inf"), notes, _evidence(steps))
     m0 = model.fit(False, False)
     mh = model.fit(True, False) if both_sweeps else None
     ml = model.fit(False, True) if rates_vary else None
-    full = model.fit(both_sweeps, rates_vary)
     inflation = model.lag_inflation() if (both_sweeps and rates_vary) else float("inf")
     p: dict[str, float] = {}
     findings: list[ThermalCause] = []
@@ -185,7 +190,9 @@ def report_lines(causes: ThermalCauses) -> list[str]:
     if causes.undistinguished:
         lines.append(f"{s}: a sweep-dependent error, not distinguishable as " + " or ".join(
             f"{f.effect} {_size(f)}" for f in causes.undistinguished))
-    if not causes.findings and not causes.undistinguished:
+    if not causes.p:
+        lines.append(f"{s}: thermal hysteresis and lag not tested")
+    elif not causes.findings and not causes.undistinguished:
         tested = ", ".join(f"{k} p = {v:.2g}" for k, v in causes.p.items())
         lines.append(f"{s}: no thermal hysteresis or lag beyond the steps' deviations"
                      + (f" ({tested})" if tested else ""))

@@ -4,8 +4,8 @@ fitted to them with a sweep offset and a lag.
 Each step k gives six terms z_k: B's three elements (counts) and H's three scales (H_ii relative to its mean over
 the steps), with their covariance C_k (B_cov and the scales' block of H_cov). The curves are those of the
 temperature model (rig.calibration.thermal), each term a polynomial P_i of the die temperature, here at the
-highest order the model ever takes (polynomial.MAX_ORDER, fewer where the distinct temperatures do not allow it)
-so that a curve the model could follow is never read as a cause. The extensions:
+highest order the model ever takes (polynomial.MAX_ORDER; less where the distinct set points, up and down counted
+once, do not allow it) so that a curve the model could follow is never read as a cause. The extensions:
 
     z_k = P(T_k - r_k tau) + s_k h + e_k,       e_k ~ N(0, C_k + sigma_Tk^2 g_k g_k'),
 
@@ -36,6 +36,7 @@ SCALES = [0, 4, 8]                 # H row-major: the diagonal
 TAU_GRID = 41
 LAG_REACH = 0.25                   # the lag searched moves no step by more than this share of the temperature range
 TAU_LIMIT_S = 1800.0
+SAME_SET_POINT_C = 1.0             # steps closer than this are one temperature to the curves' order
 
 
 @dataclass
@@ -67,6 +68,7 @@ class SweepData:
     reference_c: float
     half_range_c: float
     order: int
+    set_points: int
 
 
 @dataclass
@@ -109,13 +111,13 @@ def sweep_data(sensor: str, steps: list[SweptStep]) -> SweepData:
         Craw[k, 3:, 3:] = CH[np.ix_(SCALES, SCALES)] / np.outer(diag, diag)
     Zraw[:, 3:] -= np.sign(np.diag(H_mean))
     unit = np.sqrt(np.median(np.einsum("kii->ki", Craw), axis=0))
-    distinct = np.unique(np.round(T, 1)).size
+    distinct = 1 + int(np.sum(np.diff(np.sort(T)) > SAME_SET_POINT_C))
     return SweepData(temp_c=T, temp_std_c=np.array([s.step.temp_std_c for s in steps], dtype=float),
                      sign=np.array([SWEEPS[s.sweep] for s in steps]),
                      rate_c_per_s=np.array([s.rate_c_per_min for s in steps], dtype=float) / 60.0,
                      Z=Zraw / unit, C=Craw / np.outer(unit, unit)[None], unit=unit, H_mean=H_mean,
                      reference_c=0.5 * (T.min() + T.max()), half_range_c=max(0.5 * float(np.ptp(T)), 1e-6),
-                     order=int(max(0, min(MAX_ORDER, distinct - 2))))
+                     order=int(max(0, min(MAX_ORDER, distinct - 1))), set_points=distinct)
 
 
 class SweepModel:
