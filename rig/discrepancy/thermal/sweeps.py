@@ -31,7 +31,6 @@ from rig.calibration.thermal.curves import step_covariance
 from rig.calibration.thermal.polynomial import MAX_ORDER, derivative_design, design
 
 SWEEPS = {"up": 1.0, "down": -1.0}
-TERMS = ("B_x", "B_y", "B_z", "scale_x", "scale_y", "scale_z")
 SCALES = [0, 4, 8]                 # H row-major: the diagonal
 TAU_GRID = 41
 LAG_REACH = 0.25                   # the lag searched moves no step by more than this share of the temperature range
@@ -82,7 +81,6 @@ class SweepFit:
     h: np.ndarray | None
     cov_h: np.ndarray | None
     tau_std_s: float
-    has_lag: bool
 
 
 def sweep_data(sensor: str, steps: list[SweptStep]) -> SweepData:
@@ -178,12 +176,15 @@ class SweepModel:
         return np.matmul(self.W, A).reshape(-1, A.shape[2])
 
     def tau_bound_s(self) -> float:
+        """The largest lag searched (s): none moves a step by more than LAG_REACH of the range; 0 without rates."""
         top = float(np.max(np.abs(self.d.rate_c_per_s)))
         if top <= 0:
             return 0.0
         return float(min(TAU_LIMIT_S, LAG_REACH * 2 * self.d.half_range_c / top))
 
     def fit(self, with_h: bool, with_lag: bool) -> SweepFit:
+        """One of the four models: tau by the profile chi-square (a grid over +-tau_bound_s, refined around its
+        best point), then h and the deviations at that tau (module docstring)."""
         n_obs = self.d.Z.size
         tau = 0.0
         if with_lag and self.tau_bound_s() > 0:
@@ -207,8 +208,7 @@ class SweepModel:
         if with_h:
             h = theta[self.q_poly:self.q_poly + 6]
             cov_h = cov[self.q_poly:self.q_poly + 6, self.q_poly:self.q_poly + 6] * scale
-        return SweepFit(chi2=chi2, dof=dof, tau_s=tau, h=h, cov_h=cov_h, tau_std_s=tau_std * np.sqrt(scale),
-                        has_lag=with_lag)
+        return SweepFit(chi2=chi2, dof=dof, tau_s=tau, h=h, cov_h=cov_h, tau_std_s=tau_std * np.sqrt(scale))
 
     def lag_inflation(self) -> float:
         """How much the lag's deviation grows when the hysteresis is fitted beside it, at no lag (sqrt of the
