@@ -3,10 +3,11 @@
 An entry says what the effect is called, which sensors it acts on, the unit its magnitude is reported in, and who
 looks for it: the discrepancy analysis of a turntable session (`family="model"`, a candidate test in
 `rig.discrepancy.candidates`) or the twin of a recording (`family="noise"`, fitted from the noise statistics by
-`procedures.twin.extension`). The simulated world's terms (`fixtures.world.effects`) and the analysis's candidate
-tests register themselves against these names, one module per effect, found by `discover`;
-`tests/rig/test_effects_registry.py` checks that every entry has its simulator term, its draw range and its
-candidate test, or says why it has none.
+`procedures.twin.extension`), or the analysis of a thermal session's steps (`family="thermal"`,
+`rig.discrepancy.thermal`: hysteresis between the sweeps, thermal lag). The simulated world's terms
+(`fixtures.world.effects`) and the analysis's candidate tests register themselves against these names, one module
+per effect, found by `discover`; `tests/rig/test_effects_registry.py` checks that every entry has its simulator
+term, its draw range and its candidate test, or says why it has none.
 
 A new effect: one entry here, its simulator term in `fixtures/world/effects/<name>.py` (with its realistic range)
 and its candidate test in `rig/discrepancy/candidates/<name>.py`; nothing else lists effect names
@@ -33,7 +34,7 @@ class EffectSpec:
     unit: str                         # of the magnitude; "{unit}" is the sensor's reported unit (rig.units)
     cause: str
     family: str = "model"             # "model": a candidate test on turntable sessions; "noise": the twin's;
-    #                                   "thermal": seen only across the temperature steps of a thermal session
+                                      # "thermal": named from a thermal session's steps (rig.discrepancy.thermal)
     no_candidate: str = ""            # why no candidate test exists (empty: the analysis must have one)
 
     def unit_for(self, sensor: str, base: str | None = None) -> str:
@@ -48,6 +49,16 @@ class EffectSpec:
 
     def reported_sensor(self, tested_on: str) -> str:
         return "rig" if self.sensors == ("rig",) else tested_on
+
+
+THERMAL_HYSTERESIS = "thermal_hysteresis"
+THERMAL_LAG = "thermal_lag"
+THERMAL_NAMES_IT = ("a thermal session's effect: rig.discrepancy.thermal names it from the steps' calibrations and "
+                    "their sweep directions and rates, not a turntable session's regressor")
+
+
+def _thermal(name: str, unit: str, cause: str) -> EffectSpec:
+    return EffectSpec(name, TRIADS, unit, cause, family="thermal", no_candidate=THERMAL_NAMES_IT)
 
 
 def _noise(name: str, sensors: tuple[str, ...], unit: str, cause: str) -> EffectSpec:
@@ -70,6 +81,10 @@ EFFECTS: dict[str, EffectSpec] = {e.name: e for e in (
     EffectSpec("gyro_scale_asymmetry", ("gyro",), "percent", "different scale for positive and negative rates"),
     EffectSpec("table_magnetic_disturbance", ("mag",), "uT", "field of a motor carried by the outer gimbal"),
     EffectSpec("mag_offset_flip", ("mag",), "uT", "bridge magnetisation flipped by a strong field (set/reset)"),
+    _thermal(THERMAL_HYSTERESIS, "{unit}", "bias and scale differ between the up and the down temperature sweep "
+             "(package stress that relaxes only partly)"),
+    _thermal(THERMAL_LAG, "s", "the sensing element's temperature lags the thermometer's (a die sensor away from "
+             "the element, or the air read instead of the die)"),
     _noise("white_noise_mismatch", TRIADS, "dimensionless", "noise density other than the simulator's"),
     _noise("bias_instability", TRIADS, "{unit}", "flicker (1/f) noise of the bias"),
     _noise("rate_random_walk", TRIADS, "{unit} per sqrt(s)", "the bias integrates white noise"),
@@ -79,10 +94,6 @@ EFFECTS: dict[str, EffectSpec] = {e.name: e for e in (
            "a fan, a vehicle), or a noise of the accelerometer's own in some poses"),
     _noise("saturation", TRIADS, "percent", "the output clips at its range"),
     _noise("warm_up", TRIADS, "{unit}", "the bias settling as the unit comes to temperature after power-on"),
-    EffectSpec("thermal_hysteresis", TRIADS, "{unit}", "the bias at a temperature depends on the side it was "
-               "approached from (packaging stress that relaxes with a lag)", family="thermal",
-               no_candidate="a session at one temperature cannot show it: only a thermal session's up and down "
-                            "sweeps can"),
 )}
 
 
