@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from rig.commands.common import mirrored, read_any_session, rig_config, run_session_to
+from rig.commands.plan import bus_loads
 from rig.commands.importing import initial_rest_option, sensor_units, units_option
 from rig.exits import CommandError, Exit, FiniteFloat, command_error, plain
 
@@ -112,6 +113,7 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_
     if time_scale is not None and not sim:
         raise click.UsageError("--time-scale applies to --sim only")
     config = rig_config(config_path, orientations)
+    bus_loads(config)               # a rate the buses cannot carry is refused (exit 2) before anything moves
     plan = None
     if budget_s is not None or target_h_pct is not None:
         from rig.commands.plan import planned_config, predicted_lines, refuse_orientations_with_planner
