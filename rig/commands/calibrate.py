@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from procedures.slot_session import slot_folders
 from rig.commands.common import mirrored, read_any_session, rig_config, run_session_to
 from rig.commands.plan import bus_loads
 from rig.commands.importing import initial_rest_option, sensor_units, units_option
@@ -129,7 +130,7 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_
         plan = chosen.to_dict()
     elif noise_from is not None:
         raise click.UsageError("--noise-from goes with --budget-s or --target-h-pct")
-    with mirrored(out, store or config.store.get("url")):
+    with mirrored(out, store or config.store.get("url"), [out / slot.name for slot in config.slots]):
         code = run_session_to(out, config, sim=sim, seed=seed, time_scale=time_scale, method=method,
                               progress=not no_progress, plots=plots, plan=plan)
     sys.exit(code)
@@ -181,6 +182,6 @@ def resume(session, method, store, no_progress, plots):
     """Finish an interrupted session: hold again at its last recorded orientation, record the rest, calibrate.
 
     Refused (exit 4) while another process works on the session or its turntable."""
-    with mirrored(session, store):
+    with mirrored(session, store, slot_folders(session)):
         code = run_session_to(session, None, method=method, progress=not no_progress, resume=True, plots=plots)
     sys.exit(code)
