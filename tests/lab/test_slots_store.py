@@ -1,7 +1,7 @@
 """A session of several slots in the lab's store: each slot stored as a session of its own unit (its serial, its
 calibration, its verdict) that records the table it shared (the slots session's id, how many units, the table
 time), pushed afterwards (`rig push SLOTS_FOLDER`) or mirrored while it runs (`rig calibrate --store`), and shown
-by `rig history`."""
+by `rig history` and the web page of the unit and of its session."""
 
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ def check_store(url: str, out: Path) -> dict:
     return manifest
 
 
-def test_push_of_a_slots_folder_stores_one_session_per_unit_with_the_shared_table(tmp_path, pg_url):
+def test_push_of_a_slots_folder_stores_one_session_per_unit_with_the_shared_table(tmp_path, pg_url, serve):
     out = tmp_path / "table"
     done = rig("calibrate", "--sim", "--config", short_four_slots(tmp_path), "--no-progress", "--seed", 5,
                "--out", out, timeout=600)
@@ -69,6 +69,15 @@ def test_push_of_a_slots_folder_stores_one_session_per_unit_with_the_shared_tabl
     assert (f"shared table with {len(manifest['slots'])} units, table time {manifest['table_time_s']:.0f} s"
             in history.stdout), history.stdout
     assert manifest["id"] in history.stdout
+    served = serve(pg_url)
+    line = f"shared table with {len(manifest['slots'])} units, table time {manifest['table_time_s']:.0f} s"
+    status, body = served.get(f"/unit/{serial}")
+    assert status == 200 and line in body.decode(), body[:2000]
+    with psycopg.connect(pg_url) as conn:
+        key = conn.execute("SELECT s.key::text FROM sessions s JOIN units u ON u.id = s.unit_id WHERE u.serial = %s",
+                           (serial,)).fetchone()[0]
+    status, body = served.get(f"/session/{key}")
+    assert status == 200 and line in body.decode() and manifest["id"] in body.decode(), body[:2000]
 
 
 def test_calibrate_with_store_mirrors_every_slot_as_its_own_session(tmp_path, pg_url):
