@@ -44,6 +44,7 @@ class Sampler:
     _k: int = 0
     late_reads: int = 0
     skipped_ticks: int = 0
+    taken_rows: int = 0                         # rows handed out by `take` so far
     read_errors: list = field(default_factory=list)
     _last_good: dict = field(default_factory=dict)
     gone: set = field(default_factory=set)      # triads of dropped slots: rows stay empty
@@ -229,6 +230,7 @@ class Sampler:
             temp_c, vsupply_v = columns[None]
         rec = Recording(np.array(self._t), {n: np.array(v, dtype=float).reshape(-1, 3) for n, v in self._rows.items()},
                         temp_c, vsupply_v, self.late_reads)
+        self.taken_rows += len(self._t)
         self._begin()
         return rec
 

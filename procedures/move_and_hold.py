@@ -72,7 +72,9 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     The table is positioned straight at orientation `start_step` (an unrecorded move) and its hold is the
     first thing recorded: a resumed run starts by holding again where the interrupted one last held, so the
     first recorded move starts from a hold of its own run, never across the interruption.
-    Returns acquisition figures: ticks sampled and reads that found no fresh sample (late_reads).
+    Returns acquisition figures: ticks on the grid (`ticks`), those the loop fell behind on (`skipped_ticks`),
+    those read in a step that was spoiled and redone, not stored (`ticks_discarded`), and reads that found no
+    fresh sample (`late_reads`): every tick is a stored row or counted in one of the first two.
     """
     n = len(schedule)
     arm_table(table, m)
@@ -82,6 +84,7 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     sampler = Sampler(board, clock, m.schedule.rate_hz, m.schedule.mag_every, session_t0=session_t0)
     sampler.align_to("gyro")
     j, first, tries = start_step, start_step, {}
+    stored, discarded = sampler.taken_rows, 0        # rows taken up to the last stored step; rows thrown away
     at = None       # the encoder angles read last, when the table has not moved since (a step's end: its start)
     while j < n:
         attempt = tries.get(j, 0) + 1
@@ -91,11 +94,15 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
                     progress(j, n, "move")
                 at = _record_move(table, sampler, store, geometry, schedule[j], j - 1, m,
                                   strict=attempt < m.schedule.max_hold_attempts, start_deg=at)
+                stored = sampler.taken_rows
             if progress:
                 progress(j, n, "hold")
             at = _record_hold(table, sampler, board, store, geometry, schedule[j], j, m, attempt, start_deg=at)
+            stored = sampler.taken_rows
             j += 1
         except StepSpoiled as spoiled:
+            discarded += sampler.taken_rows - stored
+            stored = sampler.taken_rows
             tries[j] = attempt
             at = None
             if attempt >= m.schedule.max_hold_attempts:
@@ -105,7 +112,7 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     if progress:
         progress(n, n, "done")
     return {"ticks": sampler._k, "late_reads": sampler.late_reads, "skipped_ticks": sampler.skipped_ticks,
-            "steps_redone": sum(tries.values())}
+            "ticks_discarded": discarded, "steps_redone": sum(tries.values())}
 
 
 class StepSpoiled(RigError):

@@ -31,7 +31,7 @@ from rig.schedule import Orientation
 from drivers.errors import DriverError
 from procedures.session import check_plan, plan_for, record, session_metadata, write_json
 from procedures.slot_session import (MANIFEST, RecordingRig, SlotsOutcome, is_slots_session, new_manifest,
-                                     read_manifest)
+                                     read_manifest, shared_table)
 from procedures.slots import DROPPED_EVENT, SlotsBoard, SlotStores
 from rig.config import RigConfig, config_from_dict
 from rig.errors import Busy, CalibrationError, InputError, RigError, signal_name
@@ -320,7 +320,11 @@ class SessionOrchestrator:
         """Each live slot calibrated in its own folder (or the Outcome that ended it); a dropped slot's Outcome
         says why it was dropped; the manifest gets the shared table time and every slot's end."""
         outcome = SlotsOutcome(self.folder)
+        times = [t for t in (store.last_time() for store in stores.values()) if t is not None]
+        outcome.table_time_s = max(times) if times else None
+        table = shared_table(self.folder, len(stores), outcome.table_time_s)
         for name, store in stores.items():
+            store.update_metadata(table=table)
             dropped = store.metadata.get("slot_dropped")
             if name in ended:
                 outcome.slots[name] = ended[name]
@@ -330,8 +334,6 @@ class SessionOrchestrator:
             else:
                 one = SessionOrchestrator(self.folder / name, self.build_rig, method=self.method, plots=self.plots)
                 outcome.slots[name] = one._finish(store, n_holds)
-        times = [t for t in (store.last_time() for store in stores.values()) if t is not None]
-        outcome.table_time_s = max(times) if times else None
         try:
             manifest = read_manifest(self.folder)
             manifest.update(table_time_s=outcome.table_time_s, ended={
@@ -408,7 +410,8 @@ class SessionOrchestrator:
                                                  field_uT=session.field_uT, unit_serial=unit.get("serial"),
                                                  board=unit.get("board"),
                                                  extra={"session": str(self.folder), "verdict": verdict,
-                                                        **({"plan": meta["plan"]} if meta.get("plan") else {})},
+                                                        **({"plan": meta["plan"]} if meta.get("plan") else {}),
+                                                        **({"table": meta["table"]} if meta.get("table") else {})},
                                                  session=session)
             report_args = dict(gravity=session.gravity, field_uT=session.field_uT, truth=truth, limits=limits,
                                evaluation=evaluation,

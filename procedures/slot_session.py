@@ -9,6 +9,7 @@ same table; once the session ends it also holds the shared table time and each s
 from __future__ import annotations
 
 import json
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,13 +35,30 @@ def read_manifest(folder: Path) -> dict:
     return manifest
 
 
+def slot_folders(folder: Path) -> list[Path]:
+    """Each slot's session folder of a slots session (each is a session of its own unit), [] for any other folder."""
+    if not is_slots_session(folder):
+        return []
+    return [Path(folder) / str(slot.get("folder") or slot["name"]) for slot in read_manifest(folder)["slots"]]
+
+
 def new_manifest(config, spec, configs: dict) -> dict:
     """The manifest written before recording starts: the slots, their serials, how to rebuild the rig."""
-    return {"schema": SCHEMA,
+    return {"schema": SCHEMA, "id": str(uuid.uuid4()),
             "slots": [{**slot.to_dict(), "serial": configs[slot.name].serial, "folder": slot.name}
                       for slot in config.slots],
             "simulated": spec.simulated, "seed": spec.seed, "time_scale": spec.time_scale, "trial": spec.trial,
             "config": config.to_dict()}
+
+
+def shared_table(folder: Path, units: int, table_time_s: float | None) -> dict:
+    """What each slot's session and calibration record of the table it shared (`table` key): the slots session's
+    id (the manifest's, else its folder's name), how many units the table carried and its table time in s."""
+    try:
+        session = read_manifest(folder).get("id") or Path(folder).name
+    except InputError:
+        session = Path(folder).name
+    return {"session": str(session), "units": int(units), "table_time_s": table_time_s}
 
 
 @dataclass

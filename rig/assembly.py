@@ -16,7 +16,7 @@ real runs on the real clock. An analog sensor and the ADC it is read through are
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 import click
@@ -30,6 +30,7 @@ from fixtures.followed_table import FollowedTable, PolledTrack
 from fixtures.simrig import SimulatedHardware
 from fixtures.simslots import SimulatedSlots
 from rig.board import SensorBoard, build_board, placements
+from rig.bus_budget import CountingI2C, TrafficLog, bus_names, counting_wiring
 from rig.clock import Clock, RealClock, SimClock
 from rig.config import RigConfig
 from rig.errors import InputError, RigError
@@ -178,8 +179,10 @@ def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0
 
 def assemble_slots(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0,
                    time_scale: float | None = None, effects=(), open_i2c=None, open_spi=None, open_gpio=None,
-                   run: int = 0) -> SlotsRig:
-    """The table and every slot's board: all simulated (`simulate`) or all real."""
+                   run: int = 0, traffic: Callable[[Clock], TrafficLog] | None = None) -> SlotsRig:
+    """The table and every slot's board: all simulated (`simulate`) or all real. `traffic(clock)`, when given, is
+    the log every I2C and SPI transfer of every slot is counted into (`rig.bus_budget`'s counting wrappers on
+    each bus, above its switch: the selects are counted too)."""
     mixed = [key for key in ("chips", "turntable") if key in config.sim]
     if mixed:
         raise BadSetting(f"{config.source}: [sim] {mixed[0]}: a session of [[slots]] is all simulated (--sim) or "
@@ -188,6 +191,8 @@ def assemble_slots(config: RigConfig, *, simulate: bool, seed: int = 0, trial: i
         raise AssemblyError(f"{config.source}: --time-scale needs the simulated rig")
     clock: Clock = SimClock(time_scale=time_scale) if simulate else RealClock()
     configs = dict(config.slot_configs())
+    log = None if traffic is None else traffic(clock)
+    counted: dict[int, Any] = {}            # I2C bus number -> its counting wrapper (one per bus)
     switches: dict[tuple[int, int], TCA9548A] = {}       # one driver per switch: its channel cache is the chip's
     with contextlib.ExitStack() as stack:
         hw = None
@@ -205,6 +210,9 @@ def assemble_slots(config: RigConfig, *, simulate: bool, seed: int = 0, trial: i
                 names = {p.name for p in placements(cfg.board, cfg.chips)}
                 wiring = _real_wiring(cfg, clock, stack, names, open_i2c, open_spi, open_gpio, buses=opened)
                 upstream = wiring.i2c
+            if log is not None:
+                wiring = _counted(wiring, upstream, slot, log, counted)
+                upstream = counted.get(slot.i2c_bus)
             if slot.mux is not None and upstream is not None:
                 address, channel = slot.mux
                 switch = switches.get((slot.i2c_bus, address))
@@ -220,6 +228,18 @@ def assemble_slots(config: RigConfig, *, simulate: bool, seed: int = 0, trial: i
         link = stack.enter_context(_link(config, clock, hw.url if hw is not None else None))
         truths = None if hw is None else {name: slot.truth for name, slot in hw.slots.items()}
         return SlotsRig(config, clock, link, boards, configs, truths, hw, _stack=stack.pop_all())
+
+
+def _counted(wiring: Wiring, upstream: Any, slot, log: TrafficLog, counted: dict[int, Any]) -> Wiring:
+    """`wiring` of a slot with its I2C bus (the one wrapper of its bus number) and its SPI devices logging into
+    `log` under the names `rig plan` gives those buses."""
+    i2c_name, spi_name = bus_names({"i2c_bus": slot.i2c_bus, "spi_bus": slot.spi_bus})
+    if upstream is not None and slot.i2c_bus not in counted:
+        counted[slot.i2c_bus] = CountingI2C(upstream, log, i2c_name)
+    out = counting_wiring(wiring, log, i2c_name, spi_name)
+    if wiring.i2c is upstream and upstream is not None:
+        out = replace(out, i2c=counted[slot.i2c_bus])
+    return replace(out, parts=wiring.parts)
 
 
 def _follow_delay(config: RigConfig) -> float:

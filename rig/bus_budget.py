@@ -127,6 +127,38 @@ class TrafficLog:
         return tuple(self.entries[start:])
 
 
+class WireTimedLog(TrafficLog):
+    """A `TrafficLog` that also stamps each transfer with the clock's time and makes the clock pay its wire time
+    (with `charge`: a simulated clock then runs as slowly as the real buses would let the sampler run): a session read through
+    counting wrappers of its fake buses gives the bus time each tick actually used (`ticks_of`)."""
+
+    def __init__(self, clock: Any, i2c_clock: int, *, charge: bool = True) -> None:
+        super().__init__()
+        self.clock, self.i2c_clock, self.charge = clock, i2c_clock, charge
+        self.times: list[float] = []
+
+    def add(self, bus: str, transfer: I2CTransfer | SpiFrame) -> None:
+        super().add(bus, transfer)
+        self.times.append(self.clock.now())
+        if self.charge:
+            self.clock.sleep(transfer.seconds(self.i2c_clock))
+
+    def ticks_of(self, period_s: float, since: float = 0.0) -> list[dict[str, float]]:
+        """Per tick after clock time `since`, each bus's wire seconds: a tick is a run of transfers with no gap of
+        half a period or more between one's end and the next's start."""
+        ticks: list[dict[str, float]] = []
+        end = -math.inf
+        for t, (bus, transfer) in zip(self.times, self.entries):
+            if t < since:
+                continue
+            if t - end >= period_s / 2:
+                ticks.append({})
+            seconds = transfer.seconds(self.i2c_clock)
+            ticks[-1][bus] = ticks[-1].get(bus, 0.0) + seconds
+            end = t + seconds
+        return ticks
+
+
 def _w(n: int) -> tuple[bool, int]:
     return (False, n)
 

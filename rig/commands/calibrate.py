@@ -7,7 +7,9 @@ from pathlib import Path
 
 import click
 
+from procedures.slot_session import slot_folders
 from rig.commands.common import mirrored, read_any_session, rig_config, run_session_to
+from rig.commands.plan import bus_loads
 from rig.commands.importing import initial_rest_option, sensor_units, units_option
 from rig.exits import CommandError, Exit, FiniteFloat, command_error, plain
 
@@ -121,6 +123,7 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_
         config = thermal_config(sim, config_path, orientations)
     else:
         config = rig_config(config_path, orientations)
+    bus_loads(config)               # a rate the buses cannot carry is refused (exit 2) before anything moves
     if config.thermal is not None:
         from rig.commands.thermal_run import run_thermal_to
 
@@ -148,7 +151,7 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_
         plan = chosen.to_dict()
     elif noise_from is not None:
         raise click.UsageError("--noise-from goes with --budget-s or --target-h-pct")
-    with mirrored(out, store or config.store.get("url")):
+    with mirrored(out, store or config.store.get("url"), [out / slot.name for slot in config.slots]):
         code = run_session_to(out, config, sim=sim, seed=seed, time_scale=time_scale, method=method,
                               progress=not no_progress, plots=plots, plan=plan)
     sys.exit(code)
@@ -204,7 +207,7 @@ def resume(session, method, store, no_progress, plots):
         raise CommandError(f"{session}: a step of the thermal session in {session.resolve().parent}; resume that "
                            f"(`rig resume {session.parent}`), which soaks the step's temperature again first",
                            Exit.BAD_INPUT)
-    with mirrored(session, store):
+    with mirrored(session, store, slot_folders(session)):
         if (session / "thermal.json").is_file():         # procedures.thermal_session.MANIFEST
             from rig.commands.thermal_run import run_thermal_to
 

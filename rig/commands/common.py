@@ -231,9 +231,10 @@ def show_slots_outcome(outcome, echo=click.echo) -> int:
 
 
 @contextlib.contextmanager
-def mirrored(out: Path, store: str | None):
+def mirrored(out: Path, store: str | None, slot_folders: list[Path] | None = None):
     """The session recorded in `out` and, with a database store, mirrored into it while it runs (rig.lab.mirror:
-    the rig never waits for the network); a folder store is where session folders lie, so `out` must be in it."""
+    the rig never waits for the network); a folder store is where session folders lie, so `out` must be in it.
+    A session of several slots is mirrored as one session per slot (`slot_folders`, each its own unit)."""
     if store is None:
         yield
         return
@@ -250,5 +251,7 @@ def mirrored(out: Path, store: str | None):
     except ModuleNotFoundError as exc:
         raise CommandError(f"--store {store}: the lab's store needs the package {exc.name!r}: "
                            "pip install 'rig[lab]'", Exit.BAD_INPUT) from None
-    with live_mirror(out, store):
+    with contextlib.ExitStack() as mirrors:
+        for folder in slot_folders or [out]:
+            mirrors.enter_context(live_mirror(folder, store))
         yield

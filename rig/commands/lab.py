@@ -103,9 +103,10 @@ def push(session_dir, root, store_url, rig_name, follow, wait_s):
         with lab_errors():
             sys.exit(_follow(session_dir, store_url, rig_name, wait_s))
     with lab_errors():
+        from procedures.slot_session import slot_folders
         from rig.lab.local import session_folders
 
-        folders = [session_dir] if session_dir is not None else session_folders(root)
+        folders = session_folders(root) if session_dir is None else slot_folders(session_dir) or [session_dir]
         if not folders:
             click.echo(f"{root}: no session folders found")
             return
@@ -208,7 +209,7 @@ def units(store_url, json_out):
 def history(serial, store_url, json_out, plot, source):
     """Every calibration of a unit, oldest first, with drift flagged against the uncertainty."""
     from rig.lab.questions import history as unit_history
-    from rig.lab.records import check_source
+    from rig.lab.records import check_source, shared_table_line
 
     with lab_errors():
         source = check_source(source)
@@ -229,6 +230,9 @@ def history(serial, store_url, json_out, plot, source):
         click.echo(f"{entry['started_utc']}  {entry['session']:<28} rig {entry['rig']:<12} {entry['status']:<9} "
                    f"{entry['verdict'] or '-':<11}"
                    + (f"  DRIFT: {', '.join(flags)} (> {data['z_flag']:g} sigma since the one before)" if flags else ""))
+        shared = shared_table_line(entry.get("table"))
+        if shared:
+            click.echo(f"{'':26}{shared} (slots session {entry['table'].get('session')})")
         for other in entry["beside"]:
             moved = [s for s, d in other["change"].items() if d["flagged"]]
             click.echo(f"{'':26}beside it: {other['source']} ({other['verdict'] or 'no verdict'})"

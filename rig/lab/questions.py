@@ -54,7 +54,8 @@ def history(store, serial: str, source: str = RIG_SOURCE) -> dict:
         sensors = record.sensors()
         entry = {"session": record.session, "key": record.key, "started_utc": iso(record.started), "rig": record.rig,
                  "status": record.status, "source": record.source, "verdict": record.verdict, "sensors": sensors,
-                 "beside": [_beside(sensors, other) for other in records if other is not record]}
+                 "beside": [_beside(sensors, other) for other in records if other is not record],
+                 "table": record.table}
         if previous is not None:
             entry["drift"] = {name: drift(previous[name], cal) for name, cal in sensors.items() if name in previous}
         entries.append(entry)

@@ -81,6 +81,13 @@ class CalibrationRecord:
         return verdict if isinstance(verdict, str) else None
 
     @property
+    def table(self) -> dict | None:
+        """The table this unit shared with others in one session of several slots (`session`, `units`,
+        `table_time_s`), None for a unit calibrated alone."""
+        table = self.document.get("table")
+        return table if isinstance(table, dict) else None
+
+    @property
     def run(self) -> str | None:
         """The batch run that made it (None for the rig's own)."""
         return self.source[len(BATCH_PREFIX):] if self.source.startswith(BATCH_PREFIX) else None
@@ -183,3 +190,12 @@ def load_document(text: str, where: str) -> dict:
     if not isinstance(doc, dict):
         raise StoreInputError(f"{where}: not a calibration document (a JSON object)")
     return doc
+
+
+def shared_table_line(table: dict | None) -> str | None:
+    """"shared table with 4 units, table time 126 s" of a calibration's `table`, None without one."""
+    if not isinstance(table, dict) or not isinstance(table.get("units"), int) or table["units"] < 1:
+        return None
+    t = table.get("table_time_s")
+    return (f"shared table with {table['units']} units"
+            + (f", table time {float(t):.0f} s" if isinstance(t, (int, float)) else ""))

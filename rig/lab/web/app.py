@@ -29,7 +29,8 @@ from rig.errors import RigError
 from rig.lab import questions
 from rig.lab.errors import StoreUnavailable
 from rig.lab.identity import parse_utc
-from rig.lab.records import BATCH_PREFIX, RIG_SOURCE, STATUSES, Filters, check_source, iso, pick_source
+from rig.lab.records import (BATCH_PREFIX, RIG_SOURCE, STATUSES, Filters, check_source, iso, pick_source,
+                             shared_table_line)
 from rig.lab.web import sessionview
 
 HERE = Path(__file__).parent
@@ -50,6 +51,7 @@ def create_app(store) -> Starlette:
     env.policies["json.dumps_function"] = _dumps
     env.filters["when"] = _when
     env.filters["num"] = _num
+    env.filters["shared_table"] = lambda table: shared_table_line(table) or ""
     templates = Jinja2Templates(env=env)
     residual_cache: dict[tuple, dict] = {}
     residual_lock = threading.Lock()
@@ -133,6 +135,7 @@ def create_app(store) -> Starlette:
         files = [(name, media) for name, media in store.artifacts(row.key)]
         files = [(c["file"], "application/json") for c in calibrations] + files
         return page(request, "session.html", row=row, meta=meta, calibrations=calibrations, files=files,
+                    table=shown.table if shown else None,
                     session_file=sessionview.SESSION_NAME, events=store.events(row.key),
                     holds=store.hold_means(row.key), results=results, z_flag=questions.Z_FLAG)
 
