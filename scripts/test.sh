@@ -29,7 +29,7 @@ if [ $# -gt 0 ]; then
     exec python -m pytest "$@"
 fi
 workers=(-n auto --maxprocesses 4 --dist loadfile)
-python -m pytest "${workers[@]}"
+python -m pytest "${workers[@]}" --durations=60
 other=$(python scripts/other_blas.py)
 echo "second pass: numerical tests with ${other:-the same kernel} and one BLAS thread"
 env $other OPENBLAS_NUM_THREADS=1 python -m pytest -p no:cacheprovider "${workers[@]}" \
