@@ -29,7 +29,6 @@ import argparse
 import concurrent.futures as cf
 import json
 import os
-import re
 import resource
 import shutil
 import signal

@@ -5,7 +5,6 @@ and what one replica draws from them: `procedures.twin.draws`). Apart from the r
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 
 import numpy as np
 

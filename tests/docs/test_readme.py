@@ -5,7 +5,6 @@ live in the tables generated from benchmarks/results)."""
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 from docs_paths import DOCS, ROOT
 

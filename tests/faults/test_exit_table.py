@@ -5,7 +5,6 @@ table's; the reference page (docs/reference/exit-codes.md) is generated from the
 from __future__ import annotations
 
 import glob
-import re
 import resource
 import signal
 import socket

@@ -221,7 +221,6 @@ def _residuals_and_jacobian(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, n
     f = e @ S
     w = np.linalg.norm(f, axis=1)
     u = f / w[:, None]
-    n = len(z)
     dS = np.concatenate([np.zeros((3, 3, 3)), _SYM_BASIS])                   # (9, 3, 3)
     dv = np.einsum("pij,nj->npi", dS, d)
     dv[:, :3, :] -= S.T[None]                                               # dB_j: -S e_j = -S[:, j]

@@ -20,7 +20,6 @@ calibration can be told to, or where integrating every second sample shows far m
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from rig.calibration.recordings.carried_gravity import fit_carried_gravity, rotate_inverse
 from rig.calibration.turntable.gyro import MoveSet, decimated, integrated_quats, scalar_search
