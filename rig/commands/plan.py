@@ -138,7 +138,10 @@ def bus_loads(config):
     """`simulated_bus_loads`, refused (exit 2) when a bus cannot carry the schedule's rate."""
     from rig.bus_budget import refusal
 
-    loads = simulated_bus_loads(config)
+    try:
+        loads = simulated_bus_loads(config)
+    except ValueError as e:          # a chip setting the drivers refuse ([chips.gyro] rate_hz = -50)
+        raise CommandError(f"{config.source}: {e}", Exit.BAD_INPUT) from None
     why = refusal(loads, config.schedule.rate_hz)
     if why is not None:
         raise CommandError(f"{config.source}: [schedule] rate_hz = {config.schedule.rate_hz:g}: {why}",

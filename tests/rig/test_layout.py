@@ -37,3 +37,11 @@ def test_no_two_test_helpers_share_a_name():
                and "data" not in p.relative_to(ROOT / "tests").parts]
     twice = {name: n for name, n in Counter(p.name for p in helpers).items() if n > 1}
     assert not twice, twice
+
+
+def test_no_two_test_modules_share_a_name():
+    """Test folders are not packages, so pytest imports a test file by its bare name: a second file of one name is
+    an import mismatch that stops the whole run."""
+    tests = [p for p in (ROOT / "tests").rglob("test_*.py") if "data" not in p.relative_to(ROOT / "tests").parts]
+    twice = {name: n for name, n in Counter(p.name for p in tests).items() if n > 1}
+    assert not twice, twice

@@ -35,6 +35,10 @@ NEVER_SHOWN = {
                                                 "it was started with",
     ("resume", "procedures.orchestrator", "--out"): "an existing session is refused when one starts "
                                                     "(SessionOrchestrator.start), never on resume",
+    ("resume", "procedures.thermal_session", "--out"): "an existing thermal session is refused when one starts "
+                                                       "(ThermalSession.start), never on resume",
+    ("resume", "rig.assembly", "--sim"): "slots mixing real and emulated parts are refused when the session "
+                                         "starts; a resumed one rebuilds the rig it was started with",
 }
 
 # (command, module, option) -> what the command says of an option it does not take, in a file this work does not
