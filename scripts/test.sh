@@ -23,8 +23,8 @@ python -m pip install -q -e '.[test]'
 # A whole run (no arguments) spreads the test files over the machine's cores (at most four: each worker may start its
 # own PostgreSQL server and browser), then runs the numerical tests a second time on another BLAS kernel of this CPU
 # and one BLAS thread, so that a test which holds only for one machine's floating point fails here first: the fits
-# and their uncertainty in process; the commands run on whole recordings and the twins' replicas are left to the
-# first pass. Arguments go to pytest as given, in one process.
+# and their uncertainty, in process; the filters, the twins and the commands on whole recordings are left to the
+# first pass (the run must stay within its time). Arguments go to pytest as given, in one process.
 if [ $# -gt 0 ]; then
     exec python -m pytest "$@"
 fi
@@ -33,12 +33,8 @@ python -m pytest "${workers[@]}" --durations=60
 other=$(python scripts/other_blas.py)
 echo "second pass: numerical tests with ${other:-the same kernel} and one BLAS thread"
 env $other OPENBLAS_NUM_THREADS=1 python -m pytest -p no:cacheprovider "${workers[@]}" \
-    tests/calibration_vector tests/calibration_gyro tests/planner tests/world tests/independent \
-    tests/attitude tests/discrepancy \
-    tests/recordings/test_twin_parallel.py tests/recordings/test_carry_weight.py \
-    tests/recordings/test_noise_terms.py tests/recordings/test_noise_level_dof.py \
-    tests/recordings/test_norm_fit_uncertainty.py tests/recordings/test_quasi_static.py \
-    tests/recordings/test_loo_scatter.py tests/recordings/test_warm_up.py \
-    tests/recordings/test_g_sensitivity_calibration.py \
-    --ignore=tests/discrepancy/test_blind.py --ignore=tests/attitude/test_lever_arm_attitude.py \
-    --ignore=tests/attitude/test_attitude_validation_sim.py
+    tests/calibration_vector tests/calibration_gyro tests/calibration_thermal tests/planner \
+    tests/recordings/test_carry_weight.py tests/recordings/test_noise_terms.py \
+    tests/recordings/test_noise_level_dof.py tests/recordings/test_norm_fit_uncertainty.py \
+    tests/recordings/test_quasi_static.py tests/recordings/test_loo_scatter.py \
+    tests/recordings/test_g_sensitivity_calibration.py tests/recordings/test_warm_up.py
