@@ -38,6 +38,7 @@ from rig.chamber.client import ChamberLink
 from rig.chamber.errors import ChamberError, CommunicationError
 from rig.clock import Clock
 from rig.config import RigConfig, config_from_dict, thermal_set_points
+from rig.discrepancy.thermal import SweptStep, report_lines, thermal_causes
 from rig.errors import InputError, RigError, signal_name
 from rig.io.calibration_json import read_calibration, triads_from_calibration, write_calibration
 from rig.locks import session_lock, table_lock
@@ -262,6 +263,9 @@ class ThermalSession:
             t = temp[np.isfinite(temp)]
             die = {"mean": round(float(t.mean()), 4), "std": round(float(t.std()), 4),
                    "min": round(float(t.min()), 4), "max": round(float(t.max()), 4), "samples": int(t.size)}
+            rate = hold_rate_c_per_min(session.t, temp, session.is_move)
+            if rate is not None:
+                die["rate_c_per_min"] = round(rate, 6)
         table_s = None
         try:
             table_s = read_calibration(folder / CALIBRATION_FILE).get("table_time_s")
@@ -275,6 +279,7 @@ class ThermalSession:
     def _finish(self, config: RigConfig) -> ThermalOutcome:
         steps = self.manifest["steps"]
         by_sensor: dict[str, list[ThermalStep]] = {}
+        recorded: dict[str, list[dict]] = {}
         unit: dict = {}
         cals = {}
         for step in steps:
@@ -291,6 +296,7 @@ class ThermalSession:
                 continue
             for name, cal in triads_from_calibration(doc).items():
                 by_sensor.setdefault(name, []).append(ThermalStep(die["mean"], cal, die.get("std", 0.0)))
+                recorded.setdefault(name, []).append(step)
                 cals.setdefault(name, []).append((die["mean"], cal))
         models: dict[str, ThermalModel] = {}
         warnings: list[str] = []
@@ -311,6 +317,9 @@ class ThermalSession:
         summary = {name: {"reference_c": mdl.reference_c, "valid_c": list(mdl.valid_c),
                           "B_order": mdl.B.orders, "H_order": mdl.H.orders} for name, mdl in models.items()}
         self.manifest["temperature_model"] = summary
+        causes = self._causes(by_sensor, recorded)
+        self.manifest["causes"] = {name: c.as_dict() for name, c in causes.items()}
+        self.manifest["causes_lines"] = [line for c in causes.values() for line in report_lines(c)]
         try:
             path = write_calibration(
                 self.folder / CALIBRATION_FILE, sensors, gravity=config.gravity_mps2, field_uT=config.field_uT,
@@ -335,6 +344,22 @@ class ThermalSession:
         out.warnings = warnings
         return out
 
+    def _causes(self, by_sensor: dict[str, list[ThermalStep]], recorded: dict[str, list[dict]]) -> dict:
+        """Each sensor's thermal causes (hysteresis between the sweeps, lag of the element behind the
+        thermometer) from its steps, each placed in its sweep by the set-point sequence."""
+        out = {}
+        for name, thermal_steps in by_sensor.items():
+            steps = recorded[name]
+            swept = []
+            for s, ts, sweep in zip(steps, thermal_steps, sweep_directions([s["set_point_c"] for s in steps])):
+                air = s["soaks"][-1].get("air_c") if s.get("soaks") else None
+                swept.append(SweptStep(ts, sweep, float(s["die_c"].get("rate_c_per_min", 0.0)), air))
+            try:
+                out[name] = thermal_causes(name, swept)
+            except (ValueError, np.linalg.LinAlgError) as exc:
+                self.manifest.setdefault("causes_warnings", []).append(f"{name}: no thermal causes: {exc}")
+        return out
+
     # -- the manifest ----------------------------------------------------------------------------
     def _add_time(self, seconds: float) -> None:
         self.manifest["chamber_time_s"] = round(float(self.manifest.get("chamber_time_s", 0.0)) + seconds, 3)
@@ -353,6 +378,29 @@ class ThermalSession:
         return ThermalOutcome(self.folder, status, reason, steps=list(m["steps"]),
                               lines=summary_lines(m), table_time_s=float(m.get("table_time_s", 0.0)),
                               chamber_time_s=float(m.get("chamber_time_s", 0.0)), **kw)
+
+
+def sweep_directions(set_points: list[float]) -> list[str]:
+    """Each step's sweep ("up" or "down") from the set-point sequence: the direction the chamber moved to reach
+    it; the first step takes the direction of the move that leaves it."""
+    out: list[str] = []
+    for k, sp in enumerate(set_points):
+        if k > 0 and sp != set_points[k - 1]:
+            out.append("up" if sp > set_points[k - 1] else "down")
+        elif k + 1 < len(set_points) and set_points[k + 1] != sp:
+            out.append("up" if set_points[k + 1] > sp else "down")
+        else:
+            out.append(out[-1] if out else "up")
+    return out
+
+
+def hold_rate_c_per_min(t: np.ndarray, temp_c: np.ndarray, is_move: np.ndarray) -> float | None:
+    """The die temperature's rate during the holds (degC/min, least-squares slope over the hold rows); None
+    with fewer than two finite hold readings."""
+    ok = np.isfinite(temp_c) & ~np.asarray(is_move, bool) & np.isfinite(t)
+    if ok.sum() < 2 or np.ptp(t[ok]) <= 0:
+        return None
+    return float(np.polyfit(t[ok], temp_c[ok], 1)[0]) * 60.0
 
 
 def _describe(exc: BaseException) -> str:
@@ -390,4 +438,6 @@ def summary_lines(manifest: dict) -> list[str]:
     for name, mdl in (manifest.get("temperature_model") or {}).items():
         lines.append(f"{name}: temperature model over {mdl['valid_c'][0]:.2f} .. {mdl['valid_c'][1]:.2f} C "
                      f"(reference {mdl['reference_c']:.2f} C), orders B {mdl['B_order']}, H {mdl['H_order']}")
+    lines.extend(manifest.get("causes_lines") or [])
+    lines.extend(manifest.get("causes_warnings") or [])
     return lines
