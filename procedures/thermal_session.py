@@ -43,6 +43,7 @@ from rig.errors import InputError, RigError, signal_name
 from rig.io.calibration_json import read_calibration, triads_from_calibration, write_calibration
 from rig.locks import session_lock, table_lock
 from rig.pipeline.writing import CALIBRATION_FILE
+from rig.planner import Plan, applied, plan_for_target
 from rig.store import SESSION_FILE, NotASession, SessionStore
 from rig.store.schema import utc_now
 from rig.store.status import FINISHED_STATUSES
@@ -93,8 +94,25 @@ def step_folder_name(index: int, set_point_c: float) -> str:
     return f"step-{index + 1:02d}-{sign}{abs(set_point_c):g}C"
 
 
+def step_plan(config: RigConfig) -> Plan | None:
+    """The planner's shortest schedule whose predicted H error (relative RMS, %) meets `[thermal] step_H_std_pct`
+    for every sensor; None where [thermal] states its own orientations or no target."""
+    t = config.thermal
+    if t.orientations or not t.step_H_std_pct:
+        return None
+    try:
+        return plan_for_target(config, t.step_H_std_pct)
+    except InputError as exc:
+        raise ThermalInputError(f"{config.source}: [thermal] step_H_std_pct: "
+                                f"{str(exc).split(': ', 1)[-1]}") from None
+
+
 def step_config(config: RigConfig) -> RigConfig:
-    """A step's session configuration: [thermal]'s schedule size and hold in place of [schedule]'s where given."""
+    """A step's session configuration: the planner's schedule (`step_plan`) where [thermal] asks for it, else
+    [thermal]'s schedule size and hold in place of [schedule]'s where given."""
+    plan = step_plan(config)
+    if plan is not None:
+        return applied(config, plan)
     t = config.thermal
     schedule = replace(config.schedule, orientations=t.orientations or config.schedule.orientations,
                        hold_s=t.hold_s or config.schedule.hold_s)
@@ -129,6 +147,7 @@ class ThermalSession:
         if config.slots:
             raise ThermalInputError(f"{config.source}: a thermal session of several slots ([[slots]]) is not "
                                     "supported; one unit per thermal session")
+        plan = step_plan(config)
         if (self.folder / MANIFEST).exists() or (self.folder / SESSION_FILE).exists():
             raise NotASession(f"{self.folder}: a session already exists here; finish it with `rig resume "
                               f"{self.folder}` or choose another --out")
@@ -145,6 +164,8 @@ class ThermalSession:
             "set_points_c": points, "runs": 0, "chamber_time_s": 0.0, "table_time_s": 0.0,
             "steps": [{"index": k, "set_point_c": sp, "folder": step_folder_name(k, sp), "status": "pending",
                        "soaks": []} for k, sp in enumerate(points)]}
+        if plan is not None:
+            self.manifest["step_plan"] = {"target_H_std_pct": config.thermal.step_H_std_pct, **plan.to_dict()}
         with session_lock(self.folder):
             self._save()
             return self._run(config, spec)
@@ -411,6 +432,14 @@ def _describe(exc: BaseException) -> str:
     return "; ".join([text, *(getattr(exc, "__notes__", None) or [])])
 
 
+def plan_line(plan: dict) -> str:
+    """The planner's schedule of every step and its predicted H error against the target."""
+    worst = max(p["H_rel_pct"] for p in plan["predicted"].values())
+    return (f"each step's schedule (planner, H target {plan['target_H_std_pct']:g} %): {plan['orientations']} "
+            f"orientations x {plan['hold_s']:g} s hold, {plan['eta_s']:.0f} s on the table, predicted H error "
+            f"{worst:.3g} %")
+
+
 def step_line(step: dict, n: int) -> str:
     """One line per step: set point, soak, die temperature, table time, verdict."""
     head = f"step {step['index'] + 1}/{n} at {step['set_point_c']:g} C ({step['folder']})"
@@ -431,7 +460,8 @@ def step_line(step: dict, n: int) -> str:
 
 def summary_lines(manifest: dict) -> list[str]:
     steps = manifest["steps"]
-    lines = [step_line(s, len(steps)) for s in steps if s["status"] != "pending"]
+    lines = [plan_line(manifest["step_plan"])] if manifest.get("step_plan") else []
+    lines += [step_line(s, len(steps)) for s in steps if s["status"] != "pending"]
     soak_s = sum(x["duration_s"] for s in steps for x in s.get("soaks", []))
     lines.append(f"table time {manifest.get('table_time_s', 0.0):.0f} s; chamber time "
                  f"{manifest.get('chamber_time_s', 0.0):.0f} s (of which soaking {soak_s:.0f} s)")
