@@ -38,10 +38,12 @@ from rig.chamber.client import ChamberLink
 from rig.chamber.errors import ChamberError, CommunicationError
 from rig.clock import Clock
 from rig.config import RigConfig, config_from_dict, thermal_set_points
+from rig.discrepancy.thermal import SweptStep, report_lines, thermal_causes
 from rig.errors import InputError, RigError, signal_name
 from rig.io.calibration_json import read_calibration, triads_from_calibration, write_calibration
 from rig.locks import session_lock, table_lock
 from rig.pipeline.writing import CALIBRATION_FILE
+from rig.planner import Plan, applied, plan_for_target
 from rig.store import SESSION_FILE, NotASession, SessionStore
 from rig.store.schema import utc_now
 from rig.store.status import FINISHED_STATUSES
@@ -92,8 +94,25 @@ def step_folder_name(index: int, set_point_c: float) -> str:
     return f"step-{index + 1:02d}-{sign}{abs(set_point_c):g}C"
 
 
+def step_plan(config: RigConfig) -> Plan | None:
+    """The planner's shortest schedule whose predicted H error (relative RMS, %) meets `[thermal] step_H_std_pct`
+    for every sensor; None where [thermal] states its own orientations or no target."""
+    t = config.thermal
+    if t.orientations or not t.step_H_std_pct:
+        return None
+    try:
+        return plan_for_target(config, t.step_H_std_pct)
+    except InputError as exc:
+        raise ThermalInputError(f"{config.source}: [thermal] step_H_std_pct: "
+                                f"{str(exc).split(': ', 1)[-1]}") from None
+
+
 def step_config(config: RigConfig) -> RigConfig:
-    """A step's session configuration: [thermal]'s schedule size and hold in place of [schedule]'s where given."""
+    """A step's session configuration: the planner's schedule (`step_plan`) where [thermal] asks for it, else
+    [thermal]'s schedule size and hold in place of [schedule]'s where given."""
+    plan = step_plan(config)
+    if plan is not None:
+        return applied(config, plan)
     t = config.thermal
     schedule = replace(config.schedule, orientations=t.orientations or config.schedule.orientations,
                        hold_s=t.hold_s or config.schedule.hold_s)
@@ -128,6 +147,7 @@ class ThermalSession:
         if config.slots:
             raise ThermalInputError(f"{config.source}: a thermal session of several slots ([[slots]]) is not "
                                     "supported; one unit per thermal session")
+        plan = step_plan(config)
         if (self.folder / MANIFEST).exists() or (self.folder / SESSION_FILE).exists():
             raise NotASession(f"{self.folder}: a session already exists here; finish it with `rig resume "
                               f"{self.folder}` or choose another --out")
@@ -144,6 +164,8 @@ class ThermalSession:
             "set_points_c": points, "runs": 0, "chamber_time_s": 0.0, "table_time_s": 0.0,
             "steps": [{"index": k, "set_point_c": sp, "folder": step_folder_name(k, sp), "status": "pending",
                        "soaks": []} for k, sp in enumerate(points)]}
+        if plan is not None:
+            self.manifest["step_plan"] = {"target_H_std_pct": config.thermal.step_H_std_pct, **plan.to_dict()}
         with session_lock(self.folder):
             self._save()
             return self._run(config, spec)
@@ -262,6 +284,9 @@ class ThermalSession:
             t = temp[np.isfinite(temp)]
             die = {"mean": round(float(t.mean()), 4), "std": round(float(t.std()), 4),
                    "min": round(float(t.min()), 4), "max": round(float(t.max()), 4), "samples": int(t.size)}
+            rate = hold_rate_c_per_min(session.t, temp, session.is_move)
+            if rate is not None:
+                die["rate_c_per_min"] = round(rate, 6)
         table_s = None
         try:
             table_s = read_calibration(folder / CALIBRATION_FILE).get("table_time_s")
@@ -275,6 +300,7 @@ class ThermalSession:
     def _finish(self, config: RigConfig) -> ThermalOutcome:
         steps = self.manifest["steps"]
         by_sensor: dict[str, list[ThermalStep]] = {}
+        recorded: dict[str, list[dict]] = {}
         unit: dict = {}
         cals = {}
         for step in steps:
@@ -291,6 +317,7 @@ class ThermalSession:
                 continue
             for name, cal in triads_from_calibration(doc).items():
                 by_sensor.setdefault(name, []).append(ThermalStep(die["mean"], cal, die.get("std", 0.0)))
+                recorded.setdefault(name, []).append(step)
                 cals.setdefault(name, []).append((die["mean"], cal))
         models: dict[str, ThermalModel] = {}
         warnings: list[str] = []
@@ -311,6 +338,9 @@ class ThermalSession:
         summary = {name: {"reference_c": mdl.reference_c, "valid_c": list(mdl.valid_c),
                           "B_order": mdl.B.orders, "H_order": mdl.H.orders} for name, mdl in models.items()}
         self.manifest["temperature_model"] = summary
+        causes = self._causes(by_sensor, recorded)
+        self.manifest["causes"] = {name: c.as_dict() for name, c in causes.items()}
+        self.manifest["causes_lines"] = [line for c in causes.values() for line in report_lines(c)]
         try:
             path = write_calibration(
                 self.folder / CALIBRATION_FILE, sensors, gravity=config.gravity_mps2, field_uT=config.field_uT,
@@ -335,6 +365,22 @@ class ThermalSession:
         out.warnings = warnings
         return out
 
+    def _causes(self, by_sensor: dict[str, list[ThermalStep]], recorded: dict[str, list[dict]]) -> dict:
+        """Each sensor's thermal causes (hysteresis between the sweeps, lag of the element behind the
+        thermometer) from its steps, each placed in its sweep by the set-point sequence."""
+        out = {}
+        for name, thermal_steps in by_sensor.items():
+            steps = recorded[name]
+            swept = []
+            for s, ts, sweep in zip(steps, thermal_steps, sweep_directions([s["set_point_c"] for s in steps])):
+                air = s["soaks"][-1].get("air_c") if s.get("soaks") else None
+                swept.append(SweptStep(ts, sweep, float(s["die_c"].get("rate_c_per_min", 0.0)), air))
+            try:
+                out[name] = thermal_causes(name, swept)
+            except (ValueError, np.linalg.LinAlgError) as exc:
+                self.manifest.setdefault("causes_warnings", []).append(f"{name}: no thermal causes: {exc}")
+        return out
+
     # -- the manifest ----------------------------------------------------------------------------
     def _add_time(self, seconds: float) -> None:
         self.manifest["chamber_time_s"] = round(float(self.manifest.get("chamber_time_s", 0.0)) + seconds, 3)
@@ -355,12 +401,43 @@ class ThermalSession:
                               chamber_time_s=float(m.get("chamber_time_s", 0.0)), **kw)
 
 
+def sweep_directions(set_points: list[float]) -> list[str]:
+    """Each step's sweep ("up" or "down") from the set-point sequence: the direction the chamber moved to reach
+    it; the first step takes the direction of the move that leaves it."""
+    out: list[str] = []
+    for k, sp in enumerate(set_points):
+        if k > 0 and sp != set_points[k - 1]:
+            out.append("up" if sp > set_points[k - 1] else "down")
+        elif k + 1 < len(set_points) and set_points[k + 1] != sp:
+            out.append("up" if set_points[k + 1] > sp else "down")
+        else:
+            out.append(out[-1] if out else "up")
+    return out
+
+
+def hold_rate_c_per_min(t: np.ndarray, temp_c: np.ndarray, is_move: np.ndarray) -> float | None:
+    """The die temperature's rate during the holds (degC/min, least-squares slope over the hold rows); None
+    with fewer than two finite hold readings."""
+    ok = np.isfinite(temp_c) & ~np.asarray(is_move, bool) & np.isfinite(t)
+    if ok.sum() < 2 or np.ptp(t[ok]) <= 0:
+        return None
+    return float(np.polyfit(t[ok], temp_c[ok], 1)[0]) * 60.0
+
+
 def _describe(exc: BaseException) -> str:
     if isinstance(exc, OSError) and exc.strerror:
         text = f"{exc.filename + ': ' if exc.filename else ''}{exc.strerror}"
     else:
         text = str(exc) if isinstance(exc, (RigError, ChamberError)) else f"{type(exc).__name__}: {exc}"
     return "; ".join([text, *(getattr(exc, "__notes__", None) or [])])
+
+
+def plan_line(plan: dict) -> str:
+    """The planner's schedule of every step and its predicted H error against the target."""
+    worst = max(p["H_rel_pct"] for p in plan["predicted"].values())
+    return (f"each step's schedule (planner, H target {plan['target_H_std_pct']:g} %): {plan['orientations']} "
+            f"orientations x {plan['hold_s']:g} s hold, {plan['eta_s']:.0f} s on the table, predicted H error "
+            f"{worst:.3g} %")
 
 
 def step_line(step: dict, n: int) -> str:
@@ -383,11 +460,14 @@ def step_line(step: dict, n: int) -> str:
 
 def summary_lines(manifest: dict) -> list[str]:
     steps = manifest["steps"]
-    lines = [step_line(s, len(steps)) for s in steps if s["status"] != "pending"]
+    lines = [plan_line(manifest["step_plan"])] if manifest.get("step_plan") else []
+    lines += [step_line(s, len(steps)) for s in steps if s["status"] != "pending"]
     soak_s = sum(x["duration_s"] for s in steps for x in s.get("soaks", []))
     lines.append(f"table time {manifest.get('table_time_s', 0.0):.0f} s; chamber time "
                  f"{manifest.get('chamber_time_s', 0.0):.0f} s (of which soaking {soak_s:.0f} s)")
     for name, mdl in (manifest.get("temperature_model") or {}).items():
         lines.append(f"{name}: temperature model over {mdl['valid_c'][0]:.2f} .. {mdl['valid_c'][1]:.2f} C "
                      f"(reference {mdl['reference_c']:.2f} C), orders B {mdl['B_order']}, H {mdl['H_order']}")
+    lines.extend(manifest.get("causes_lines") or [])
+    lines.extend(manifest.get("causes_warnings") or [])
     return lines

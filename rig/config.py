@@ -68,6 +68,7 @@ class ThermalConfig:
     max_soak_s: float = 7200.0         # not soaked in this long: a fault (the chamber or the fixture)
     orientations: int = 0              # each step's schedule size; 0: [schedule] orientations
     hold_s: float = 0.0                # each step's hold; 0: [schedule] hold_s
+    step_H_std_pct: float = 0.0        # with orientations 0: the planner's shortest schedule predicting this H error
     sim_hysteresis: bool = False       # the simulated unit carries a hysteresis between up and down sweeps
 
 
@@ -268,6 +269,7 @@ RANGES = {  # (section, key): (lowest, highest, why)
     ("thermal", "max_soak_s"): (1.0, 172800.0, "seconds"),
     ("thermal", "orientations"): (0, 64, "0: [schedule] orientations; else 9..64"),
     ("thermal", "hold_s"): (0.0, 3600.0, "seconds; 0: [schedule] hold_s"),
+    ("thermal", "step_H_std_pct"): (0.0, 100.0, "percent; 0: no planning"),
 }
 
 
