@@ -37,6 +37,8 @@ NEVER_SHOWN = {
                                                     "(SessionOrchestrator.start), never on resume",
     ("resume", "procedures.thermal_session", "--out"): "an existing thermal session is refused when one starts "
                                                        "(ThermalSession.start), never on resume",
+    ("resume", "rig.planner", "--target-h-pct"): "a thermal session's steps say the planner's refusal with the "
+                                                 "option's place taken by [thermal] step_H_std_pct (step_plan)",
     ("resume", "rig.assembly", "--sim"): "slots mixing real and emulated parts are refused when the session "
                                          "starts; a resumed one rebuilds the rig it was started with",
 }
