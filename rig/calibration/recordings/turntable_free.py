@@ -216,8 +216,17 @@ def fit_accel_upper(chunks: list[np.ndarray], gravity: float, per_sample: bool =
         H[UPPER] = p[3:] * scale
         return gravity - np.linalg.norm((samples - p[:3]) @ H.T, axis=1)
 
-    res = least_squares(residual, np.concatenate([B0, H0[UPPER] / scale]), method="lm", xtol=1e-12, ftol=1e-12,
-                        gtol=1e-12)
+    def jacobian(p: np.ndarray) -> np.ndarray:
+        """d(g - |v|)/dp with v = H (m - B): v^T H / |v| for B, -v_i (m - B)_j / |v| for each H_ij (x scale)."""
+        H = np.zeros((3, 3))
+        H[UPPER] = p[3:] * scale
+        d = samples - p[:3]
+        v = d @ H.T
+        u = v / np.linalg.norm(v, axis=1)[:, None]
+        return np.hstack([u @ H, -scale * u[:, UPPER[0]] * d[:, UPPER[1]]])
+
+    res = least_squares(residual, np.concatenate([B0, H0[UPPER] / scale]), jac=jacobian, method="lm", xtol=1e-12,
+                        ftol=1e-12, gtol=1e-12)
     H = np.zeros((3, 3))
     H[UPPER] = res.x[3:] * scale
     return res.x[:3], H, float(0.5 * res.fun @ res.fun)
