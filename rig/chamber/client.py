@@ -23,6 +23,7 @@ from rig.chamber.profile import ChamberProfile, load_profile
 from rig.chamber.words import c_to_f, f_to_c, float_to_words, words_to_float
 from rig.clock import Clock, RealClock
 from rig.modbus.channel import ModbusChannel
+from rig.modbus.device import ModbusDevice
 from rig.modbus.url import parse_url
 
 log = logging.getLogger(__name__)
@@ -48,7 +49,7 @@ class ChamberStatus:
                 + (f", ALARM {self.alarm}" if self.alarm else ""))
 
 
-class ChamberLink:
+class ChamberLink(ModbusDevice):
     """A context manager around one chamber controller; leaving the `with` block leaves the chamber safe."""
 
     def __init__(self, url: str, profile: ChamberProfile | str | Path | None = None, clock: Clock | None = None,
@@ -64,29 +65,6 @@ class ChamberLink:
         self.channel = ModbusChannel(parse_url(url, "chamber"), self.device_id, self.clock, timeout, retries,
                                      device="chamber", errors=LINK_ERRORS)
         self.fahrenheit = self.profile.modbus_units == "F"
-
-    # ---- connection -------------------------------------------------------------------------------
-    def connect(self) -> ChamberLink:
-        """Open the link, check the controller reports itself OK, learn the unit its temperatures are in."""
-        self.channel.open()
-        try:
-            self.identify()
-        except BaseException:
-            self.channel.close()
-            raise
-        return self
-
-    def close(self) -> None:
-        self.channel.close()
-
-    def __enter__(self) -> ChamberLink:
-        return self.connect()
-
-    def __exit__(self, *exc) -> None:
-        try:
-            self.make_safe()
-        finally:
-            self.close()
 
     def identify(self) -> str:
         """DEVICE_STATUS by name (must be OK); also reads DISPLAY_UNITS when the profile follows it."""

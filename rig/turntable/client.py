@@ -13,6 +13,7 @@ from pathlib import Path
 
 from rig.clock import Clock, RealClock
 from rig.modbus.channel import ModbusChannel
+from rig.modbus.device import ModbusDevice
 from rig.turntable.errors import (LINK_ERRORS, CommunicationError, EStopActive, IdentityError,
                                   ModbusExceptionError, MoveRejected, MoveTimeout, ResponseLost, TableAlarm,
                                   TurntableError)
@@ -33,7 +34,7 @@ def profile_time(distance: float, speed: float, accel: float, decel: float) -> f
     return trapezoid(distance, speed, accel, decel).duration
 
 
-class TurntableLink:
+class TurntableLink(ModbusDevice):
     """A context manager around one turntable; leaving the `with` block always makes the table safe."""
 
     def __init__(self, url: str, profile: TableProfile | str | Path | None = None, clock: Clock | None = None,
@@ -50,29 +51,6 @@ class TurntableLink:
         self.channel = ModbusChannel(parse_url(url), self.device_id, self.clock, timeout, retries,
                                      device="turntable", errors=LINK_ERRORS)
         self.axes = tuple(range(len(self.profile.axis_bases)))
-
-    # ---- connection -------------------------------------------------------------------------------
-    def connect(self) -> TurntableLink:
-        """Open the link and check that a turntable with this profile's map answers."""
-        self.channel.open()
-        try:
-            self.identify()
-        except BaseException:
-            self.channel.close()
-            raise
-        return self
-
-    def close(self) -> None:
-        self.channel.close()
-
-    def __enter__(self) -> TurntableLink:
-        return self.connect()
-
-    def __exit__(self, *exc) -> None:
-        try:
-            self.make_safe()
-        finally:
-            self.close()
 
     # ---- reading ----------------------------------------------------------------------------------
     def identify(self) -> tuple[int, int]:
