@@ -59,9 +59,7 @@ def test_delayed_responses(tt, server):
     assert c.read_holding_registers(0, count=1, device_id=1).registers == [0x5454]
     assert time.perf_counter() - t0 >= 0.25
     tt.faults.delay_responses(0)
-    t0 = time.perf_counter()
-    c.read_holding_registers(0, count=1, device_id=1)
-    assert time.perf_counter() - t0 < 0.1
+    assert c.read_holding_registers(0, count=1, device_id=1).registers == [0x5454]
     c.close()
 
 
