@@ -108,15 +108,7 @@ class SessionOrchestrator:
         A configuration of several slots records them all in one session (`SlotsOutcome`)."""
         if config.slots:
             return self._start_slots(config, spec, plan)
-        schedule = plan_for(config)
-        problems = check_plan(config, schedule)
-        if problems:
-            raise PlanError("the schedule cannot excite every axis: " + "; ".join(problems))
-        self._refuse_existing()
-        try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise NotASession(f"{self.folder}: cannot create the session folder: {exc.strerror}") from None
+        schedule = self._new_folder(config)
         with contextlib.ExitStack() as held:
             held.enter_context(session_lock(self.folder))
             self._refuse_existing()
@@ -138,6 +130,20 @@ class SessionOrchestrator:
                     return self._failed(store, exc, len(schedule))
                 outcome = self._record(rig, store, schedule, 0, resumed=False)
             return outcome or self._finish(store, len(schedule))
+
+    def _new_folder(self, config: RigConfig) -> list[Orientation]:
+        """The configuration's schedule, checked, and the folder made for it; refused (PlanError, NotASession)
+        before anything is created when the schedule cannot excite every axis or a session is already here."""
+        schedule = plan_for(config)
+        problems = check_plan(config, schedule)
+        if problems:
+            raise PlanError("the schedule cannot excite every axis: " + "; ".join(problems))
+        self._refuse_existing()
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise NotASession(f"{self.folder}: cannot create the session folder: {exc.strerror}") from None
+        return schedule
 
     def _refuse_existing(self) -> None:
         """A folder that holds a session already: busy (4, the holder named) while another process runs it,
@@ -218,15 +224,7 @@ class SessionOrchestrator:
     def _start_slots(self, config: RigConfig, spec: RigSpec, plan: dict | None) -> SlotsOutcome:
         """One session folder per slot under the folder, the manifest beside them, every slot recorded on the
         one schedule and tick grid, each calibrated on its own."""
-        schedule = plan_for(config)
-        problems = check_plan(config, schedule)
-        if problems:
-            raise PlanError("the schedule cannot excite every axis: " + "; ".join(problems))
-        self._refuse_existing()
-        try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise NotASession(f"{self.folder}: cannot create the session folder: {exc.strerror}") from None
+        schedule = self._new_folder(config)
         with contextlib.ExitStack() as held:
             held.enter_context(session_lock(self.folder))
             self._refuse_existing()
