@@ -71,8 +71,8 @@ def test_a_simulated_unit_is_named_by_its_seed_unless_the_toml_names_it(tmp_path
     named.write_text('[unit]\nserial = "BENCH-UNIT"\n\n[schedule]\norientations = 9\n')
     for args, serial in (((), "SIM-0008"), (("--config", named), "BENCH-UNIT")):
         out = tmp_path / serial
-        done = rig("calibrate", "--sim", "--seed", "8", "--time-scale", "50", "--no-progress", *args, "--out", out,
-                   timeout=300)
+        done = rig("calibrate", "--sim", "--seed", "8", "--orientations", "9", "--time-scale", "50", "--no-progress",
+                   *args, "--out", out, timeout=300)
         no_traceback(done)
         assert done.returncode == 0, done.stderr
         assert json.loads((out / "calibration.json").read_text())["unit"]["serial"] == serial
