@@ -48,12 +48,16 @@ def best_rotation(S: np.ndarray, B: np.ndarray, groups: list[tuple[np.ndarray, n
     """The rotation Q from the best start for which each group's fields make one angle with its
     direction, and the RMS of that angle's scatter it leaves (rad). A group is (raw field rows (n, 3), unit
     directions (n, 3)): the still poses with their gravity, or the samples of a turn with its axis."""
-    a = [((y - B) @ S.T / norm, d) for y, d in groups]
+    # d . (Q v) = vec(Q) . vec(d v^T): each row's products, less its group's mean, make every angle's
+    # scatter about its group's one linear in Q
+    outer = np.vstack([(d[:, :, None] * ((y - B) @ S.T / norm)[:, None, :]).reshape(-1, 9) for y, d in groups])
+    group = np.repeat(np.arange(len(groups)), [len(d) for _, d in groups])
+    means = np.stack([np.bincount(group, outer[:, j]) for j in range(9)], axis=1) / np.bincount(group)[:, None]
+    centred = outer - means[group]
     best, best_rms = None, np.inf
     for P in signed_permutations():
         def fun(x, P=P):
-            Q = _rotation(x) @ P
-            return np.concatenate([_centred((v @ Q.T * d).sum(axis=1)) for v, d in a])
+            return centred @ (_rotation(x) @ P).ravel()
         res = least_squares(fun, np.zeros(3), method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200)
         rms = float(np.sqrt(np.mean(res.fun ** 2)))
         if rms < best_rms:
@@ -101,10 +105,6 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
     return B, H, cov, {"norm_rms": rms[0] * norm, "dip_deg": float(np.degrees(np.arcsin(sine))),
                        "dip_std_deg": float(np.degrees(dip_sd)),
                        "dot_rms": rms[1], "iterations": int(res.nfev), "converged": bool(res.success)}
-
-
-def _centred(v: np.ndarray) -> np.ndarray:
-    return v - v.mean()
 
 
 def _rotation(x: np.ndarray) -> np.ndarray:
