@@ -114,8 +114,27 @@ def test_read_raw_big_endian_burst_from_gyro_xout_h(sleeps):
 
 @pytest.mark.parametrize("raw, celsius", [(-13200, 35.0), (-23000, 0.0), (5000, 100.0)])
 def test_temperature_formula(raw, celsius, sleeps):
-    with expected_protocol("i2c", [("rb", A, 0x1B, 2, list(raw.to_bytes(2, "big", signed=True)))]) as bus:
+    with expected_protocol("i2c", [("rb", A, 0x1A, 3, [0x00, *raw.to_bytes(2, "big", signed=True)])]) as bus:
         assert ITG3200(bus, sleep=sleeps).read_temperature() == pytest.approx(celsius)
+
+
+def test_a_temperature_read_does_not_hide_an_unread_sample(sleeps):
+    """Any read clears RAW_DATA_RDY: the temperature burst reads INT_STATUS too, and the sample it announced
+    is still reported ready by the next poll (once), whether that is `read_if_ready` or `data_ready`."""
+    sample = [0x00, 0x00, 0x00, 0x01, 0x02, 0xFF, 0xFE, 0x80, 0x00]
+    steps = [("rb", A, 0x1A, 3, [0x01, 0xCC, 0x70]), ("rb", A, 0x1A, 9, sample), ("rb", A, 0x1A, 9, sample),
+             ("rb", A, 0x1A, 3, [0x01, 0xCC, 0x70]), ("r", A, 0x1A, 0x00), ("r", A, 0x1A, 0x00),
+             ("rb", A, 0x1A, 3, [0x00, 0xCC, 0x70]), ("rb", A, 0x1A, 9, sample)]
+    with expected_protocol("i2c", steps) as bus:
+        gyro = ITG3200(bus, sleep=sleeps)
+        assert gyro.read_temperature() == pytest.approx(35.0)
+        assert gyro.read_if_ready() == (258, -2, -32768)
+        assert gyro.read_if_ready() is None
+        gyro.read_temperature()
+        assert gyro.data_ready() is True
+        assert gyro.data_ready() is False
+        gyro.read_temperature()
+        assert gyro.read_if_ready() is None
 
 
 def test_data_ready_and_rate_change(sleeps):
