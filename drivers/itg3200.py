@@ -126,7 +126,11 @@ class ITG3200(Sensor, ReadsWhenReady, Thermometer, KeepsConfiguration):
         self.started = True
 
     def configuration_lost(self) -> str | None:
-        """The first configuration register that no longer reads what start() wrote (a power-on reset), or None."""
+        """The first configuration register that no longer reads what start() wrote (a power-on reset), or None.
+
+        Each of those reads clears RAW_DATA_RDY (any-read-clear): INT_STATUS is read first, and a sample it
+        announces is kept as unread for the next poll (one arriving during the few reads after it stays hidden)."""
+        self._unread = self._unread or bool(self.regs.raw_data_rdy)
         return self.regs.lost()
 
     def _discard_first_sample(self) -> None:

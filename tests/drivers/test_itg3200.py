@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import pytest
 
+import numpy as np
+
 from drivers import ITG3200, DeviceAbsent, SensorFault, WrongIdentity
 from drivers.itg3200 import exact_rates
+from fixtures.buses import FakeSMBus
+from fixtures.chips import ITG3200Emulator
+from fixtures.sources import ConstantSource
+from rig.clock import SimClock
 from tests.drivers.conftest import expected_protocol, nack
 
 A = 0x68
@@ -162,3 +168,21 @@ def test_read_if_ready_is_one_burst_from_int_status(sleeps):
 def test_settings_scale_rad_per_s(sleeps):
     s = ITG3200(object(), sleep=sleeps).settings()
     assert s["scale"] == pytest.approx(1.214142e-3, rel=1e-6)   # kernel 1 214 142 nrad/s per LSB
+
+
+@pytest.mark.parametrize("between", ["read_temperature", "configuration_lost"])
+def test_reads_between_a_sample_and_its_poll_do_not_hide_it(between):
+    """On the emulated chip: a sample arrives, a temperature read or the configuration read-back happens before
+    the sampler's poll (any read clears RAW_DATA_RDY), and the poll still gets that sample, once."""
+    clock = SimClock()
+    bus = FakeSMBus(1)
+    bus.attach(A, ITG3200Emulator(ConstantSource(np.radians([10.0, 0.0, 0.0])), clock))
+    gyro = ITG3200(bus, sleep=clock.sleep)
+    gyro.start()
+    while gyro.read_if_ready() is None:
+        clock.sleep(0.001)
+    clock.sleep(1.0 / gyro.rate_hz)
+    getattr(gyro, between)()
+    sample = gyro.read_if_ready()
+    assert sample is not None and sample[0] == pytest.approx(10.0 * 14.375, abs=2)
+    assert gyro.read_if_ready() is None
