@@ -111,7 +111,7 @@ class Sampler:
         the bus time a pass takes is itself the wait for the others, and only a pass that finds none ready
         sleeps (an eighth of a period) before the next. So a tick costs the sum of its transfers and at most
         one wait, for the last chip, not one wait per chip. A sensor not ready half a period after the tick's
-        reads began is read as it is (its last sample again, counted in `late_reads`)."""
+        reads began is read as its registers stand (usually its last sample again), counted in `late_reads`."""
         values: dict = {}
         pending = list(names)
         deadline = self.clock.now() + self.dt / 2
