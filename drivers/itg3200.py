@@ -63,6 +63,7 @@ READY_POLLS, READY_POLL_S = 20, 5e-3  # up to 100 ms for ITG_RDY (start-up ~50 m
 _XYZ = struct.Struct(">hhh")
 _T = struct.Struct(">h")
 _STATUS_TO_Z = 9                    # INT_STATUS 0x1A .. GYRO_ZOUT_L 0x22, one auto-increment burst
+_STATUS_TO_TEMP = 3                 # INT_STATUS 0x1A, TEMP_OUT_H, TEMP_OUT_L
 
 
 def internal_rate_hz(dlpf_hz: int) -> int:
@@ -82,7 +83,8 @@ class ITG3200(Sensor, ReadsWhenReady, Thermometer, KeepsConfiguration):
 
     INT_CFG latches the interrupt and lets any read clear it: a polled or level-triggered host never misses the
     50 us pulse the default mode gives, and reading the sample acknowledges it, so `data_ready()` means "an
-    unread sample is waiting".
+    unread sample is waiting". A temperature read would clear that flag too, hiding a sample not yet read: it
+    reads INT_STATUS with the temperature and keeps the flag it cleared for the next poll.
     """
 
     chip = "ITG-3200"
@@ -97,6 +99,7 @@ class ITG3200(Sensor, ReadsWhenReady, Thermometer, KeepsConfiguration):
                                self.chip, " Hz")
         self.rate_hz, self.dlpf_hz = float(rate_hz), int(dlpf_hz)
         self.started = False
+        self._unread = False            # RAW_DATA_RDY a temperature read cleared before the sample was read
 
     def start(self) -> None:
         """ID -> H_RESET -> INT_CFG -> CLK_SEL PLL X -> DLPF_FS -> SMPLRT_DIV -> wait ITG_RDY -> verify DLPF_FS.
@@ -123,7 +126,11 @@ class ITG3200(Sensor, ReadsWhenReady, Thermometer, KeepsConfiguration):
         self.started = True
 
     def configuration_lost(self) -> str | None:
-        """The first configuration register that no longer reads what start() wrote (a power-on reset), or None."""
+        """The first configuration register that no longer reads what start() wrote (a power-on reset), or None.
+
+        Each of those reads clears RAW_DATA_RDY (any-read-clear): INT_STATUS is read first, and a sample it
+        announces is kept as unread for the next poll (one arriving during the few reads after it stays hidden)."""
+        self._unread = self._unread or bool(self.regs.raw_data_rdy)
         return self.regs.lost()
 
     def _discard_first_sample(self) -> None:
@@ -162,9 +169,11 @@ class ITG3200(Sensor, ReadsWhenReady, Thermometer, KeepsConfiguration):
     def read_raw(self) -> tuple[int, int, int]:
         """One 6-byte burst from GYRO_XOUT_H: big-endian signed X, Y, Z at 14.375 LSB per deg/s."""
         try:
-            return _XYZ.unpack(bytes(self.bus.read_i2c_block_data(self.address, 0x1D, 6)))  # GYRO_XOUT_H
+            raw = _XYZ.unpack(bytes(self.bus.read_i2c_block_data(self.address, 0x1D, 6)))  # GYRO_XOUT_H
         except OSError as exc:
             raise wrap_os_error(exc, self.regs.where(R.GYRO_XOUT_H), "6-byte burst read") from exc
+        self._unread = False
+        return raw
 
     def read_if_ready(self) -> tuple[int, int, int] | None:
         """INT_STATUS through GYRO_ZOUT_L in one 9-byte burst (registers auto-increment, registers.md 3.1): X, Y,
@@ -173,16 +182,26 @@ class ITG3200(Sensor, ReadsWhenReady, Thermometer, KeepsConfiguration):
             raw = bytes(self.bus.read_i2c_block_data(self.address, 0x1A, _STATUS_TO_Z))  # INT_STATUS
         except OSError as exc:
             raise wrap_os_error(exc, self.regs.where(R.INT_STATUS), f"{_STATUS_TO_Z}-byte burst read") from exc
-        return _XYZ.unpack_from(raw, 3) if R.raw_data_rdy.get(raw[0]) else None
+        ready, self._unread = R.raw_data_rdy.get(raw[0]) or self._unread, False
+        return _XYZ.unpack_from(raw, 3) if ready else None
 
     def read_temperature(self) -> float:
-        """Die temperature in degC: (raw + 23000) / 280 (kernel offset and scale)."""
-        (raw,) = _T.unpack(self.regs.read_block(R.TEMP_OUT_H, 2))
-        return (raw + 23000) / 280.0
+        """Die temperature in degC: (raw + 23000) / 280 (kernel offset and scale), read in one 3-byte burst with
+        INT_STATUS before it: the read clears RAW_DATA_RDY (any-read-clear), so a sample it announced is kept as
+        unread for the next `read_if_ready`/`data_ready`."""
+        try:
+            raw = bytes(self.bus.read_i2c_block_data(self.address, 0x1A, _STATUS_TO_TEMP))  # INT_STATUS
+        except OSError as exc:
+            raise wrap_os_error(exc, self.regs.where(R.INT_STATUS), f"{_STATUS_TO_TEMP}-byte burst read") from exc
+        self._unread = self._unread or bool(R.raw_data_rdy.get(raw[0]))
+        (temp,) = _T.unpack_from(raw, 1)
+        return (temp + 23000) / 280.0
 
     def data_ready(self) -> bool:
-        """INT_STATUS.RAW_DATA_RDY (this read also clears the latched flag)."""
-        return bool(self.regs.raw_data_rdy)
+        """INT_STATUS.RAW_DATA_RDY (this read also clears the latched flag), or a flag a temperature read cleared
+        before its sample was read."""
+        ready, self._unread = bool(self.regs.raw_data_rdy) or self._unread, False
+        return ready
 
     def settings(self) -> dict:
         """Snapshot for session metadata; `scale` is rad/s per count."""

@@ -85,11 +85,10 @@ class Sampler:
         sleep_until(self.clock, t)
         stamp = self.stamp(self.clock.now())
         nan3 = (np.nan, np.nan, np.nan)
+        due = [n for n in self._names if not ((self._is_mag[n] and self._k % self.mag_every) or n in self.gone)]
+        values = self._read_due(due, stamp)
         for name in self._names:
-            if (self._is_mag[name] and self._k % self.mag_every) or name in self.gone:
-                self._rows[name].append(nan3)
-                continue
-            self._rows[name].append(self._read_when_ready(name, stamp))
+            self._rows[name].append(values.get(name, nan3))
         for key, (read_temperature, read_supply) in self._aux_of.items():
             if self._k % self.aux_every == 0:
                 if key is not None and key in self.board.dropped:
@@ -104,21 +103,50 @@ class Sampler:
         self._t.append(stamp)
         self._k += 1
 
-    def _read_when_ready(self, name: str, stamp: float):
-        """`_wait_ready` then `_read`; a chip that reads its flag and sample in one burst is asked once per poll,
-        and its first ready answer is the read (a poll that fails leaves it to `_read`, as `_wait_ready` does)."""
-        burst = self._burst[name]
-        if burst is None:
-            self._wait_ready(name)
-            return self._read(name, stamp)
+    def _read_due(self, names: list[str], stamp: float) -> dict:
+        """Every sensor in `names` read once this tick, each when its new sample is ready.
+
+        Each chip samples on its own clock, at its own phase against the grid, so at a tick some have a new
+        sample and some are a moment from one. A pass polls every sensor still waited for and reads those ready;
+        the bus time a pass takes is itself the wait for the others, and only a pass that finds none ready
+        sleeps (an eighth of a period) before the next. So a tick costs the sum of its transfers and at most
+        one wait, for the last chip, not one wait per chip. A sensor not ready half a period after the tick's
+        reads began is read as its registers stand (usually its last sample again), counted in `late_reads`."""
+        values: dict = {}
+        pending = list(names)
+        deadline = self.clock.now() + self.dt / 2
+        while True:
+            waiting = []
+            for name in pending:
+                value = self._poll(name, stamp)
+                if value is None:
+                    waiting.append(name)
+                else:
+                    values[name] = value
+            now = self.clock.now()
+            if not waiting or now >= deadline:
+                break
+            if len(waiting) == len(pending):
+                self.clock.sleep(min(self.dt / 8, deadline - now))
+            pending = waiting
+        for name in waiting:
+            self.late_reads += 1
+            values[name] = self._read(name, stamp)
+        return values
+
+    def _poll(self, name: str, stamp: float):
+        """The sensor's sample if its data-ready flag says a new one is there (or it has no flag), else None. A
+        chip that reads its flag and sample in one burst is asked once; a poll that fails leaves it to `_read`,
+        which retries and records the error."""
+        burst, ready = self._burst[name], self._ready[name]
         try:
-            for _ in range(4):
+            if burst is not None:
                 value = burst()
                 if value is not None:
                     self._last_good[name] = stamp
-                    return value
-                self.clock.sleep(self.dt / 8)
-            self.late_reads += 1
+                return value
+            if ready is not None and not ready():
+                return None
         except DriverError:
             pass
         return self._read(name, stamp)
@@ -152,21 +180,6 @@ class Sampler:
         except DriverError as e:
             self.read_errors.append((stamp, ("" if slot is None else f"{slot}/") + f"temperature/supply: {e}"))
             return None
-
-    def _wait_ready(self, name: str) -> None:
-        """Wait (briefly) for the sensor's data-ready flag; a flag that cannot be read is left to the read that
-        follows, which retries and records the error."""
-        ready = self._ready[name]
-        if ready is None:
-            return
-        try:
-            for _ in range(4):
-                if ready():
-                    return
-                self.clock.sleep(self.dt / 8)
-        except DriverError:
-            return
-        self.late_reads += 1
 
     def align_to(self, name: str, margin_s: float = 0.0) -> bool:
         """Put the tick grid just after `name`'s own sample instants (found from its data-ready edge).

@@ -143,6 +143,14 @@ class WireTimedLog(TrafficLog):
         if self.charge:
             self.clock.sleep(transfer.seconds(self.i2c_clock))
 
+    def bus_seconds(self) -> dict[str, float]:
+        """Each bus's wire seconds over every transfer logged: divided by the ticks a session read, the bus time
+        per tick it paid, whether or not its ticks' transfers ran back to back (`ticks_of` needs gaps)."""
+        total: dict[str, float] = {}
+        for bus, transfer in self.entries:
+            total[bus] = total.get(bus, 0.0) + transfer.seconds(self.i2c_clock)
+        return total
+
     def ticks_of(self, period_s: float, since: float = 0.0) -> list[dict[str, float]]:
         """Per tick after clock time `since`, each bus's wire seconds: a tick is a run of transfers with no gap of
         half a period or more between one's end and the next's start."""

@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import pytest
 
+import numpy as np
+
 from drivers import ITG3200, DeviceAbsent, SensorFault, WrongIdentity
 from drivers.itg3200 import exact_rates
+from fixtures.buses import FakeSMBus
+from fixtures.chips import ITG3200Emulator
+from fixtures.sources import ConstantSource
+from rig.clock import SimClock
 from tests.drivers.conftest import expected_protocol, nack
 
 A = 0x68
@@ -114,8 +120,27 @@ def test_read_raw_big_endian_burst_from_gyro_xout_h(sleeps):
 
 @pytest.mark.parametrize("raw, celsius", [(-13200, 35.0), (-23000, 0.0), (5000, 100.0)])
 def test_temperature_formula(raw, celsius, sleeps):
-    with expected_protocol("i2c", [("rb", A, 0x1B, 2, list(raw.to_bytes(2, "big", signed=True)))]) as bus:
+    with expected_protocol("i2c", [("rb", A, 0x1A, 3, [0x00, *raw.to_bytes(2, "big", signed=True)])]) as bus:
         assert ITG3200(bus, sleep=sleeps).read_temperature() == pytest.approx(celsius)
+
+
+def test_a_temperature_read_does_not_hide_an_unread_sample(sleeps):
+    """Any read clears RAW_DATA_RDY: the temperature burst reads INT_STATUS too, and the sample it announced
+    is still reported ready by the next poll (once), whether that is `read_if_ready` or `data_ready`."""
+    sample = [0x00, 0x00, 0x00, 0x01, 0x02, 0xFF, 0xFE, 0x80, 0x00]
+    steps = [("rb", A, 0x1A, 3, [0x01, 0xCC, 0x70]), ("rb", A, 0x1A, 9, sample), ("rb", A, 0x1A, 9, sample),
+             ("rb", A, 0x1A, 3, [0x01, 0xCC, 0x70]), ("r", A, 0x1A, 0x00), ("r", A, 0x1A, 0x00),
+             ("rb", A, 0x1A, 3, [0x00, 0xCC, 0x70]), ("rb", A, 0x1A, 9, sample)]
+    with expected_protocol("i2c", steps) as bus:
+        gyro = ITG3200(bus, sleep=sleeps)
+        assert gyro.read_temperature() == pytest.approx(35.0)
+        assert gyro.read_if_ready() == (258, -2, -32768)
+        assert gyro.read_if_ready() is None
+        gyro.read_temperature()
+        assert gyro.data_ready() is True
+        assert gyro.data_ready() is False
+        gyro.read_temperature()
+        assert gyro.read_if_ready() is None
 
 
 def test_data_ready_and_rate_change(sleeps):
@@ -143,3 +168,21 @@ def test_read_if_ready_is_one_burst_from_int_status(sleeps):
 def test_settings_scale_rad_per_s(sleeps):
     s = ITG3200(object(), sleep=sleeps).settings()
     assert s["scale"] == pytest.approx(1.214142e-3, rel=1e-6)   # kernel 1 214 142 nrad/s per LSB
+
+
+@pytest.mark.parametrize("between", ["read_temperature", "configuration_lost"])
+def test_reads_between_a_sample_and_its_poll_do_not_hide_it(between):
+    """On the emulated chip: a sample arrives, a temperature read or the configuration read-back happens before
+    the sampler's poll (any read clears RAW_DATA_RDY), and the poll still gets that sample, once."""
+    clock = SimClock()
+    bus = FakeSMBus(1)
+    bus.attach(A, ITG3200Emulator(ConstantSource(np.radians([10.0, 0.0, 0.0])), clock))
+    gyro = ITG3200(bus, sleep=clock.sleep)
+    gyro.start()
+    while gyro.read_if_ready() is None:
+        clock.sleep(0.001)
+    clock.sleep(1.0 / gyro.rate_hz)
+    getattr(gyro, between)()
+    sample = gyro.read_if_ready()
+    assert sample is not None and sample[0] == pytest.approx(10.0 * 14.375, abs=2)
+    assert gyro.read_if_ready() is None

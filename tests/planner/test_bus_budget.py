@@ -105,8 +105,9 @@ def write_config(tmp_path, text: str):
 
 
 def test_rig_plan_refuses_a_rate_the_i2c_bus_cannot_carry(tmp_path):
-    # bsn at 100 kHz: gyro burst every tick, magnetometer poll + burst every 2nd, temperature every 10th
-    worst_s = (ITG_BURST + HMC_STATUS + HMC_DATA + (1 + 9 + 9 + 1 + 9 + 2 * 9 + 1)) / 100e3
+    # bsn at 100 kHz: gyro burst every tick, magnetometer poll + burst every 2nd, temperature (INT_STATUS and
+    # TEMP_OUT_H/L in one 3-byte burst) every 10th
+    worst_s = (ITG_BURST + HMC_STATUS + HMC_DATA + (1 + 9 + 9 + 1 + 9 + 3 * 9 + 1)) / 100e3
     rate = 500
     assert worst_s * rate > 1
     path = write_config(tmp_path, f'[unit]\nboard = "bsn"\n[schedule]\nrate_hz = {rate}\n')
