@@ -49,6 +49,7 @@ class Soak:
     die_c: float
     air_c: float
     readings: list[tuple[float, float]] = field(default_factory=list)     # (clock s, die C)
+    die_start_c: float = float("nan")     # the die's first reading: where the approach to the set point began
 
     @property
     def duration_s(self) -> float:
@@ -57,7 +58,8 @@ class Soak:
     def to_dict(self) -> dict:
         return {"set_point_c": self.set_point_c, "start_s": round(self.start_s, 3), "end_s": round(self.end_s, 3),
                 "duration_s": round(self.duration_s, 3), "die_slope_c_per_min": round(self.slope_c_per_min, 5),
-                "die_c": round(self.die_c, 4), "air_c": round(self.air_c, 4), "readings": len(self.readings)}
+                "die_c": round(self.die_c, 4), "air_c": round(self.air_c, 4), "readings": len(self.readings),
+                "die_start_c": round(self.die_start_c, 4)}
 
 
 def window_slope(readings: list[tuple[float, float]], now: float, window_s: float) -> float | None:
@@ -81,6 +83,7 @@ def soak(chamber: ChamberLink, read_die: Callable[[], float | None], clock: Cloc
     chamber.set_point(set_point_c)
     chamber.run()
     readings: list[tuple[float, float]] = []
+    first: float | None = None
     while True:
         now = clock.now()
         status = chamber.status()
@@ -91,13 +94,14 @@ def soak(chamber: ChamberLink, read_die: Callable[[], float | None], clock: Cloc
         if die is None or not np.isfinite(die):
             raise SoakNotSettled("the unit's thermometer gives no reading; a soak is judged from it")
         readings.append((now, float(die)))
+        first = float(die) if first is None else first
         if on_reading is not None:
             on_reading(now, float(die), status.air_c)
         slope = window_slope(readings, now, settings.window_s)
         air_there = abs(status.air_c - set_point_c) <= settings.tolerance_c
         if (air_there and slope is not None and abs(slope) < settings.slope_c_per_min
                 and now - start >= settings.min_soak_s):
-            return Soak(set_point_c, start, now, slope, float(die), status.air_c, readings)
+            return Soak(set_point_c, start, now, slope, float(die), status.air_c, readings, first)
         if now - start >= settings.max_soak_s:
             said = "no slope yet" if slope is None else f"{slope:+.3f} C/min"
             raise SoakNotSettled(

@@ -39,6 +39,7 @@ from rig.chamber.errors import ChamberError, CommunicationError
 from rig.clock import Clock
 from rig.config import RigConfig, config_from_dict, thermal_set_points
 from rig.discrepancy.thermal import SweptStep, report_lines, thermal_causes
+from rig.discrepancy.thermal.sweeps import SAME_SET_POINT_C
 from rig.errors import InputError, RigError, signal_name
 from rig.io.calibration_json import read_calibration, triads_from_calibration, write_calibration
 from rig.locks import session_lock, table_lock
@@ -367,12 +368,12 @@ class ThermalSession:
 
     def _causes(self, by_sensor: dict[str, list[ThermalStep]], recorded: dict[str, list[dict]]) -> dict:
         """Each sensor's thermal causes (hysteresis between the sweeps, lag of the element behind the
-        thermometer) from its steps, each placed in its sweep by the set-point sequence."""
+        thermometer) from its steps, each placed in the sweep its die was approached from (`approach_directions`)."""
         out = {}
         for name, thermal_steps in by_sensor.items():
             steps = recorded[name]
             swept = []
-            for s, ts, sweep in zip(steps, thermal_steps, sweep_directions([s["set_point_c"] for s in steps])):
+            for s, ts, sweep in zip(steps, thermal_steps, approach_directions(steps)):
                 air = s["soaks"][-1].get("air_c") if s.get("soaks") else None
                 swept.append(SweptStep(ts, sweep, float(s["die_c"].get("rate_c_per_min", 0.0)), air))
             try:
@@ -399,6 +400,21 @@ class ThermalSession:
         return ThermalOutcome(self.folder, status, reason, steps=list(m["steps"]),
                               lines=summary_lines(m), table_time_s=float(m.get("table_time_s", 0.0)),
                               chamber_time_s=float(m.get("chamber_time_s", 0.0)), **kw)
+
+
+def approach_directions(steps: list[dict]) -> list[str]:
+    """Each step's sweep ("up" or "down"): the direction its die temperature moved during the step's last soak
+    (from its first reading to its last), the path a hysteresis remembers; where that soak moved the die by less
+    than `SAME_SET_POINT_C` or did not keep its first reading, the set-point sequence's (`sweep_directions`). The
+    first step of a session is reached from the room's temperature, not from another step, and a resumed step from
+    wherever the chamber drifted while it was safe: only the die says which side they were approached from."""
+    by_set_points = sweep_directions([s["set_point_c"] for s in steps])
+    out = []
+    for step, fallback in zip(steps, by_set_points):
+        last = step["soaks"][-1] if step.get("soaks") else {}
+        moved = float(last.get("die_c", np.nan)) - float(last.get("die_start_c", np.nan))
+        out.append(("up" if moved > 0 else "down") if abs(moved) >= SAME_SET_POINT_C else fallback)
+    return out
 
 
 def sweep_directions(set_points: list[float]) -> list[str]:

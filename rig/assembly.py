@@ -124,20 +124,21 @@ def build_real(config: RigConfig, *, open_i2c=None, open_spi=None, open_gpio=Non
 
 
 def build_sim(config: RigConfig, *, seed: int = 0, trial: int = 0, time_scale: float | None = None,
-              effects=(), run: int = 0, clock: Clock | None = None, temperature=None) -> Rig:
+              effects=(), run: int = 0, clock: Clock | None = None, temperature=None, noise_stream: int = 0) -> Rig:
     """The simulated rig: everything the real one has, emulated, with the truth known.
 
     `effects` (from `fixtures.world.effects`) are hidden in the world, e.g. to test the discrepancy analysis;
     `run` says which run of a session this is ([sim.faults] timed faults happen in the first only, by default).
-    `clock` and `temperature(t)`: a thermal session's, shared with its fake chamber (the die's temperature).
+    `clock` and `temperature(t)`: a thermal session's, shared with its fake chamber (the die's temperature);
+    `noise_stream`: which of a run's noise streams the world draws (a thermal session's steps, each its own).
     """
     return assemble(config, simulate=True, seed=seed, trial=trial, time_scale=time_scale, effects=effects, run=run,
-                    clock=clock, temperature=temperature)
+                    clock=clock, temperature=temperature, noise_stream=noise_stream)
 
 
 def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0, time_scale: float | None = None,
              effects=(), open_i2c=None, open_spi=None, open_gpio=None, run: int = 0, clock: Clock | None = None,
-             temperature=None) -> Rig:
+             temperature=None, noise_stream: int = 0) -> Rig:
     fake = fake_parts(config, simulate)
     table_fake = fake_turntable(config, simulate)
     names = {p.name for p in placements(config.board, config.chips)}
@@ -153,7 +154,7 @@ def assemble(config: RigConfig, *, simulate: bool, seed: int = 0, trial: int = 0
             track = PolledTrack(delay_s=_follow_delay(config))
         if fake or table_fake:
             hw = SimulatedHardware(config, clock, seed=seed, trial=trial, effects=effects, track=track, only=fake,
-                                   run=run, temperature=temperature)
+                                   run=run, temperature=temperature, noise_stream=noise_stream)
             stack.enter_context(hw)
         wirings = {}
         real = names - fake

@@ -47,6 +47,7 @@ class SimulatedThermalRig:
         self.fake = FakeChamber(self.clock, profile=config.chamber.profile)
         self.server = ChamberServer(self.fake)
         self.effects = unit_thermal_effects(spec.seed or 0, hysteresis=config.thermal.sim_hysteresis)
+        self.rigs_built = 0
 
     def __enter__(self) -> "SimulatedThermalRig":
         self.server.__enter__()
@@ -56,8 +57,12 @@ class SimulatedThermalRig:
         self.server.__exit__(*exc)
 
     def build_rig(self, config: RigConfig, spec) -> assembly.Rig:
+        """A soak's or a step's rig: the same unit, its own noise (each step is measured apart from the others, so
+        no two steps' calibrations share an error)."""
+        self.rigs_built += 1
         rig = assembly.build_sim(config, seed=spec.seed or 0, trial=spec.trial, run=getattr(spec, "run", 0),
-                                 clock=self.clock, temperature=self.fake.die_at, effects=self.effects)
+                                 clock=self.clock, temperature=self.fake.die_at, effects=self.effects,
+                                 noise_stream=self.rigs_built)
         base = rig.truth_fn
         physical = {n: {"H": m.H, "B": m.B} for n, m in rig.world.sensors.items()}
         rig.truth_fn = lambda: truth_at(base(), physical, self.effects, self.fake.die_c())

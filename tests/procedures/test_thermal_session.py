@@ -12,7 +12,7 @@ import pytest
 from fixtures.world.heat import curves_at
 from procedures.orchestrator import RigSpec
 from procedures.soak import soak, SoakSettings
-from procedures.thermal_session import MANIFEST
+from procedures.thermal_session import MANIFEST, soak_settings
 from rig.commands.thermal_run import SimulatedThermalRig, builtin_thermal_config, run_thermal_to
 from rig.errors import StopSignal
 from rig.store import SessionStore
@@ -40,20 +40,22 @@ def true_settling_time(fake, start_s: float, end_s: float, threshold_c_per_min: 
     return float(t[above[-1] + 1]) if above.size else start_s
 
 
-@pytest.mark.parametrize("set_points", [(40.0, 10.0)])
-def test_a_soak_ends_within_ten_percent_of_when_the_die_truly_settles(set_points):
+@pytest.mark.parametrize("set_points,settings", [((40.0, 10.0), SETTINGS),
+                                                 ((30.0, 15.0), soak_settings(builtin_thermal_config()))],
+                         ids=["slope-0.1", "built-in"])
+def test_a_soak_ends_within_ten_percent_of_when_the_die_truly_settles(set_points, settings):
     config = short_config([10.0, 40.0])
     spec = RigSpec(True, 3, None)
     with SimulatedThermalRig(config, spec) as hw, hw.build_rig(config, spec) as rig, hw.chamber() as chamber:
         rig.board.start()
         chamber.ramp_rate(None)
-        soaks = [soak(chamber, rig.board.read_temperature, hw.clock, sp, SETTINGS) for sp in set_points]
+        soaks = [soak(chamber, rig.board.read_temperature, hw.clock, sp, settings) for sp in set_points]
         hw.clock.sleep(4000.0)                # the truth's trajectory long after the last soak
         horizon = hw.clock.now()
         for k, done in enumerate(soaks):
             end = soaks[k + 1].start_s if k + 1 < len(soaks) else horizon
-            truth = true_settling_time(hw.fake, done.start_s, end, SETTINGS.slope_c_per_min)
-            assert truth - done.start_s > SETTINGS.min_soak_s       # the die's own settling decided, not the floor
+            truth = true_settling_time(hw.fake, done.start_s, end, settings.slope_c_per_min)
+            assert truth - done.start_s > settings.min_soak_s       # the die's own settling decided, not the floor
             assert abs(done.end_s - truth) <= 0.10 * (truth - done.start_s), (done.to_dict(), truth)
             assert abs(done.die_c - hw.fake.die_at(done.end_s)) < 0.05     # the chips read the die
 

@@ -5,10 +5,13 @@ Four fits of the same steps (sweeps.py): the curves alone (M0), with the sweep o
 fits: Delta chi2 = chi2(without) - chi2(MHL) on q degrees of freedom (6 for h, 1 for tau), against chi2_q where the
 steps scatter as their covariances say, and as q F(q, dof) with the chi-square divided by MHL's reduced
 chi-square where they scatter more (the stated deviations too small by a common factor). Hysteresis is a
-constant offset by direction, lag an offset that scales with the rate: with rates that differ between steps the
-two columns differ and each test sees its own cause; where they do not (`lag_inflation` large: the lag column is
-nearly a sweep offset, as on a session swept at one rate over straight curves) a direction-dependent error is
-still detected (M0 against MHL) but reported as not distinguishable, with both readings sized.
+constant offset by direction, one per term (6), lag one tau whose offset on each term is the rate times that
+term's slope: with rates that differ between steps the two differ and each test sees its own cause. Where they do
+not (`lag_inflation` large: the lag column is nearly a sweep offset, as on a session swept at one rate over
+straight curves) the lag cannot be told from a part of the hysteresis and is not named; the hysteresis still can
+be, where no lag explains the offsets across the six terms (a lag's offsets follow the terms' slopes, a
+hysteresis's need not), and is then sized from MH, the lag's share of it unknown. A direction-dependent error
+that neither test attributes (M0 against MHL) is reported as not distinguishable, with both readings sized.
 
 False alarms: the two conditional tests at alpha/4 each and the joint one at alpha/2, so that a clean unit is
 called anything with probability at most alpha (Bonferroni) per sensor.
@@ -105,8 +108,11 @@ def thermal_causes(sensor: str, steps: list[SweptStep], alpha: float = ALPHA) ->
         p["hysteresis_alone"] = _lr_p(m0, mh)
         p["lag_alone"] = _lr_p(m0, ml)
         distinct = inflation <= INDISTINCT
-        if distinct and p["hysteresis_given_lag"] < alpha / 4:
-            findings.append(_hysteresis(sensor, d, full, p["hysteresis_given_lag"]))
+        if p["hysteresis_given_lag"] < alpha / 4:
+            findings.append(_hysteresis(sensor, d, full if distinct else mh, p["hysteresis_given_lag"]))
+            if not distinct:
+                notes.append("hysteresis sized without a lag: no lag explains the sweep offset, but the steps' rates "
+                             f"do not tell a lag's share of it (lag deviation x{inflation:.1f} beside the offset)")
         if distinct and p["lag_given_hysteresis"] < alpha / 4:
             findings.append(_lag(sensor, full, p["lag_given_hysteresis"]))
         if not findings and p["either"] < alpha / 2:
