@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import fixtures.chips.lsm6dso as lsm6dso_emulator
 import fixtures.simrig as simrig
 from fixtures.world.model import SensorModel
 from procedures.acquisition import grid_rate_hz
@@ -52,12 +53,25 @@ def noiseless_units(monkeypatch) -> None:
                         lambda rng: {k: SensorModel(m.kind, m.H, m.B, np.zeros(3)) for k, m in drawn(rng).items()})
 
 
+def trimmed_parts(monkeypatch, freq_fine: int) -> None:
+    """Every emulated LSM6DSO with its oscillator trimmed by `freq_fine` steps (INTERNAL_FREQ_FINE)."""
+    base = lsm6dso_emulator.LSM6DSOEmulator
+
+    class Trimmed(base):
+        def __init__(self, accel_source, gyro_source, clock) -> None:
+            super().__init__(accel_source, gyro_source, clock, freq_fine=freq_fine)
+
+    monkeypatch.setattr(lsm6dso_emulator, "LSM6DSOEmulator", Trimmed)
+
+
 def _angle_deg(R: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
 
 
-@pytest.mark.parametrize("seed", [5])
-def test_an_lsm6dso_session_stores_each_gyro_sample_at_its_own_instant(tmp_path, noiseless_units, seed) -> None:
+@pytest.mark.parametrize("seed, freq_fine", [(5, 0), (6, -12)])     # -12: a part whose oscillator is 1.8 % slow
+def test_an_lsm6dso_session_stores_each_gyro_sample_at_its_own_instant(tmp_path, monkeypatch, noiseless_units, seed,
+                                                                        freq_fine) -> None:
+    trimmed_parts(monkeypatch, freq_fine)
     path = tmp_path / "rig.toml"
     path.write_text(LSM6DSO_FAST_RAMPS)
     folder = tmp_path / "session"
