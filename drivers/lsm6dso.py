@@ -36,6 +36,7 @@ class LSM6DSRegisters(RegisterMap):
     STATUS_REG = Reg(0x1E, access="r")
     OUT_TEMP_L, OUTX_L_G, OUTX_L_A = Reg(0x20, access="r"), Reg(0x22, access="r"), Reg(0x28, access="r")
     FIFO_STATUS1, FIFO_STATUS2 = Reg(0x3A, access="r"), Reg(0x3B, access="r")
+    INTERNAL_FREQ_FINE = Reg(0x63, access="r")
     FIFO_DATA_OUT_TAG = Reg(0x78, access="r")
 
     wtm = RWBits(8, FIFO_CTRL1, 0)
@@ -73,6 +74,7 @@ ODR_CODES = {12.5: 1, 26: 2, 52: 3, 104: 4, 208: 5, 416: 6, 833: 7, 1666: 8, 333
 ACCEL_FS = {2: (0, 0.061), 4: (2, 0.122), 8: (3, 0.244), 16: (1, 0.488)}     # g -> (FS_XL, mg/LSB)
 GYRO_FS = {125: (0, 1, 4.375), 250: (0, 0, 8.75), 500: (1, 0, 17.5), 1000: (2, 0, 35.0),
            2000: (3, 0, 70.0)}                                                # dps -> (FS_G, FS_125, mdps/LSB)
+FREQ_FINE_STEP = 0.0015             # INTERNAL_FREQ_FINE: output rates are nominal x (1 + 0.0015 x value)
 FIFO_BYPASS, FIFO_CONTINUOUS = 0, 6
 TAG_GYRO, TAG_ACCEL = 0x01, 0x02
 WORD = 7                            # tag byte + 3 x 16-bit little-endian
@@ -108,11 +110,15 @@ class LSM6DSFamily(Part, Thermometer, KeepsConfiguration):
         self._pending: dict[int, list] = {TAG_ACCEL: [], TAG_GYRO: []}
         self._last = {TAG_ACCEL: (0, 0, 0), TAG_GYRO: (0, 0, 0)}
         self.overruns = 0
+        self.output_hz = self.odr_hz      # the rate the part really samples at: read from its trim by start()
         self.started = False
         self.accel, self.gyro = _View(self, "accel", TAG_ACCEL), _View(self, "gyro", TAG_GYRO)
 
     def start(self) -> None:
-        """WHO_AM_I -> SW_RESET -> BOOT -> BDU -> FIFO batching -> ODR/FS -> continuous FIFO -> drop turn-on data."""
+        """WHO_AM_I -> SW_RESET -> BOOT -> BDU -> oscillator trim -> FIFO batching -> ODR/FS -> continuous FIFO ->
+        drop turn-on data. The trim (INTERNAL_FREQ_FINE) says the rate the part really samples at (`output_hz`),
+        which the sampler's grid must follow: a grid at the nominal rate beats against a part a few tenths of a
+        per cent off it."""
         regs = self.regs
         who = regs.read(R.WHO_AM_I)
         if self.is_spi:
@@ -126,6 +132,7 @@ class LSM6DSFamily(Part, Thermometer, KeepsConfiguration):
         regs.put(R.CTRL3_C, boot=1, if_inc=1)
         self.sleep(BOOT_WAIT_S)
         regs.put(R.CTRL3_C, bdu=1, if_inc=1)
+        self.output_hz = self.odr_hz * (1.0 + FREQ_FINE_STEP * _signed_byte(regs.read(R.INTERNAL_FREQ_FINE)))
         regs.put(R.FIFO_CTRL3, bdr_gy=self._odr, bdr_xl=self._odr)
         regs.put(R.CTRL1_XL, odr_xl=self._odr, fs_xl=ACCEL_FS[self.accel_range_g][0])
         fs_g, fs_125, _ = GYRO_FS[self.gyro_range_dps]
@@ -142,7 +149,7 @@ class LSM6DSFamily(Part, Thermometer, KeepsConfiguration):
         return self.regs.lost()
 
     def _wait_first_samples(self) -> None:
-        period = 1.0 / self.odr_hz
+        period = 1.0 / self.output_hz
         for _ in range(20):
             self._drain()
             if self._pending[TAG_ACCEL] and self._pending[TAG_GYRO]:
@@ -223,7 +230,8 @@ class LSM6DSFamily(Part, Thermometer, KeepsConfiguration):
 
     def settings(self) -> dict:
         return {"chip": self.chip, "interface": "spi" if self.is_spi else "i2c",
-                "address": None if self.is_spi else self.address, "odr_hz": self.odr_hz, "fifo": "continuous",
+                "address": None if self.is_spi else self.address, "odr_hz": self.odr_hz,
+                "output_hz": self.output_hz, "fifo": "continuous",
                 "accel_range_g": self.accel_range_g, "gyro_range_dps": self.gyro_range_dps,
                 "fifo_overruns": self.overruns}
 
@@ -232,6 +240,10 @@ class LSM6DSFamily(Part, Thermometer, KeepsConfiguration):
         bus = wiring.bus_for(placement, SPI_MODE, SPI_MAX_HZ)
         address = 0x6A if placement.address is None else placement.address
         return cls(bus, address, cs=placement.cs, sleep=wiring.sleep, **placement.options)
+
+
+def _signed_byte(value: int) -> int:
+    return value - 256 if value & 0x80 else value
 
 
 class _View(Sensor, DataReady, Thermometer):
@@ -260,7 +272,7 @@ class _View(Sensor, DataReady, Thermometer):
         unit = "m/s^2 per LSB" if self.kind == "accel" else "rad/s per LSB"
         rng = (self.part.accel_range_g, "g") if self.kind == "accel" else (self.part.gyro_range_dps, "deg/s")
         return {**self.part.settings(), "chip": self.part.chip, "sensor": self.kind, "range": float(rng[0]),
-                "range_unit": rng[1], "rate_hz": self.part.odr_hz, "scale": self.part.scale(self.kind),
+                "range_unit": rng[1], "rate_hz": self.part.output_hz, "scale": self.part.scale(self.kind),
                 "scale_unit": unit}
 
     @classmethod

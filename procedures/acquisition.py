@@ -4,6 +4,11 @@ Ticks are scheduled on absolute times (t0 + k/rate) so waiting for data-ready ne
 the magnetometer is read every `mag_every` ticks and its other rows stay empty (NaN), as in the
 interchange layout. Temperature and supply are read at a few Hz and carried forward.
 
+The grid runs at the output rate of the chips it is aligned to (`grid_rate_hz`): a chip that samples on its own
+clock at a rate the grid does not divide (an LSM6DSO offers 104 Hz, not 100) hands over samples whose age against
+their time stamps swings through a whole output period at the beat of the two rates, and a move integrated over
+those stamps comes out wrong by where that beat falls against each turn.
+
 The board may be the boards of several slots (`procedures.slots.SlotsBoard`): all are read on the one grid,
 temperature and supply become per-slot columns, and a slot whose chip is gone is dropped instead of ending the
 session.
@@ -16,12 +21,35 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers import DriverError
-from drivers.contract import DataReady, ReadsWhenReady
+from drivers.contract import DataReady, Part, ReadsWhenReady
 from procedures.protocols import Board, Store
 from procedures.slots import SlotsBoard, triad_kind
 from rig.clock import Clock, sleep_until
 
 ABSENT_LIMIT_S = 1.0    # a sensor with no valid sample this long is gone (a cable, a dead chip), not glitching
+
+
+def output_rate_hz(board: Board, kind: str) -> float | None:
+    """The output rate every `kind` triad of `board` reports it samples at on its own clock (`settings()["rate_hz"]`),
+    or None when one reports none (it is read on demand) or they differ."""
+    rates = set()
+    for name, triad in board.triads.items():
+        if triad_kind(name) == kind:
+            rate = triad.settings().get("rate_hz") if isinstance(triad, Part) else None
+            if not rate:
+                return None
+            rates.add(float(rate))
+    return rates.pop() if len(rates) == 1 else None
+
+
+def grid_rate_hz(board: Board, requested_hz: float, kind: str = "gyro") -> float:
+    """The tick grid's rate for `requested_hz` on `board`: the output rate of its `kind` chips (the ones the grid is
+    aligned to) divided by the whole number that brings it nearest the request, so that every tick finds exactly
+    one new sample at the same age; `requested_hz` itself when those chips are read on demand or disagree."""
+    chip_hz = output_rate_hz(board, kind)
+    if chip_hz is None:
+        return float(requested_hz)
+    return chip_hz / max(1, round(chip_hz / requested_hz))
 
 
 @dataclass

@@ -18,7 +18,7 @@ import numpy as np
 
 from drivers.contract import KeepsConfiguration
 from drivers.errors import DriverError
-from procedures.acquisition import Recording, Sampler, log_read_errors
+from procedures.acquisition import Recording, Sampler, grid_rate_hz, log_read_errors
 from procedures.hold_quality import HoldTarget, hold_has_motion, log_outliers
 from rig.schedule import Orientation
 from procedures.protocols import Board, Store, Table
@@ -81,7 +81,8 @@ def run_session(table: Table, board: Board, clock: Clock, store: Store, schedule
     if progress:
         progress(start_step, n, "positioning")
     position_table(table, clock, schedule[start_step], m)
-    sampler = Sampler(board, clock, m.schedule.rate_hz, m.schedule.mag_every, session_t0=session_t0)
+    sampler = Sampler(board, clock, grid_rate_hz(board, m.schedule.rate_hz), m.schedule.mag_every,
+                      session_t0=session_t0)
     sampler.align_to("gyro")
     j, first, tries = start_step, start_step, {}
     stored, discarded = sampler.taken_rows, 0        # rows taken up to the last stored step; rows thrown away
@@ -198,7 +199,7 @@ def _record_move(table: Table, sampler: Sampler, store: Store, geometry: TableGe
     vel.append((0.0, 0.0))
     table_deg = interpolate_angles(rec.t, t_pos, pos, vel)
     log_read_errors(store, sampler)
-    hole = gyro_hole(rec, table_deg, 1.0 / m.schedule.rate_hz, m.table.tolerance_deg, skip=sampler.gone)
+    hole = gyro_hole(rec, table_deg, sampler.dt, m.table.tolerance_deg, skip=sampler.gone)
     if strict and hole is not None:
         raise StepSpoiled(f"the gyro has no samples for {hole[0]:.3f} s of the move into hold {step + 1} while the "
                           f"table turned {hole[1]:.2f} deg (read errors or a retried table request)")
@@ -242,14 +243,15 @@ def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geo
     """Record one attempt at hold `step`; stored unless the chips lost their configuration or the hold moved.
     `start_deg`: the angles the move into it read as it ended, else read here. Returns the last angles read."""
     sequential = m.sequential is not None and bool(m.sequential.target)   # the first hold of a run: hold_s
-    ticks = int(round((m.sequential.max_s if sequential else m.schedule.hold_s) * m.schedule.rate_hz))
-    chunk = max(int(round(HOLD_POLL_S * m.schedule.rate_hz)), 1)
-    every = max(int(round(SEQUENTIAL_CHECK_S * m.schedule.rate_hz)), 1) if sequential else chunk
+    rate_hz = sampler.rate_hz
+    ticks = int(round((m.sequential.max_s if sequential else m.schedule.hold_s) * rate_hz))
+    chunk = max(int(round(HOLD_POLL_S * rate_hz)), 1)
+    every = max(int(round(SEQUENTIAL_CHECK_S * rate_hz)), 1) if sequential else chunk
     readings = [table.positions() if start_deg is None else start_deg]
     for k in range(every, ticks + every, every):
         done = min(k, ticks)
         sampler.run(done - (k - every))
-        ended = done >= ticks or (sequential and m.sequential.done(sampler.so_far(), done / m.schedule.rate_hz))
+        ended = done >= ticks or (sequential and m.sequential.done(sampler.so_far(), done / rate_hz))
         if ended or done % chunk == 0:
             readings.append(table.positions())  # encoder log, and a keep-alive for the table's watchdog
         if ended:
@@ -257,7 +259,7 @@ def _record_hold(table: Table, sampler: Sampler, board: Board, store: Store, geo
     rec = sampler.take()
     log_read_errors(store, sampler)
     check_configuration(board)
-    moved = hold_has_motion(rec, rate_hz=m.schedule.rate_hz)
+    moved = hold_has_motion(rec, rate_hz=rate_hz)
     drift = float(np.ptp(np.asarray(readings), axis=0).max())
     if drift > m.table.tolerance_deg:
         moved = f"encoders moved {drift:.4f} deg during the hold"

@@ -29,6 +29,7 @@ import numpy as np
 
 from rig.schedule import Orientation
 from drivers.errors import DriverError
+from procedures.acquisition import grid_rate_hz
 from procedures.session import check_plan, plan_for, record, session_metadata, write_json
 from procedures.slot_session import (MANIFEST, RecordingRig, SlotsOutcome, is_slots_session, new_manifest,
                                      read_manifest, shared_table)
@@ -117,7 +118,8 @@ class SessionOrchestrator:
                 truth = rig.truth_fn() if getattr(rig, "truth_fn", None) else None
                 meta = session_metadata(config, schedule, sim=spec.simulated,
                                         seed=spec.seed if spec.simulated else None, time_scale=spec.time_scale)
-                meta.update(trial=spec.trial, chips=rig.board.settings(), table_url=getattr(rig.table, "url", None))
+                meta.update(trial=spec.trial, chips=rig.board.settings(), table_url=getattr(rig.table, "url", None),
+                            sample_rate_hz=grid_rate_hz(rig.board, config.schedule.rate_hz))
                 if truth is not None:
                     meta["truth"] = truth
                 if plan is not None:
@@ -236,6 +238,7 @@ class SessionOrchestrator:
                     folder.mkdir(exist_ok=True)
                     held.enter_context(session_lock(folder))
                     meta = self._slot_metadata(rig, slot, schedule, spec, plan)
+                    meta["sample_rate_hz"] = grid_rate_hz(board, config.schedule.rate_hz)
                     stores[slot.name] = held.enter_context(SessionStore.create(folder, meta))
                     if "truth" in meta:
                         write_json(folder / "truth.json", meta["truth"])

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from procedures.acquisition import Sampler
+from procedures.acquisition import Sampler, grid_rate_hz
 from procedures.move_and_hold import HOLD_POLL_S, MotionSettings, arm_table, position_table
 from rig.schedule import Orientation
 from procedures.reference import interpolate_angles
@@ -39,7 +39,7 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
     ts = ts or TrajectorySettings()
     arm_table(table, m)
     position_table(table, clock, ts.start, m)
-    sampler = Sampler(board, clock, m.schedule.rate_hz, m.schedule.mag_every)
+    sampler = Sampler(board, clock, grid_rate_hz(board, m.schedule.rate_hz), m.schedule.mag_every)
     sampler.align_to("gyro")
     ref_t, ref_pos, ref_vel = [], [], []
 
@@ -50,8 +50,8 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
         ref_vel.append([s.velocity_dps for s in sts])
         return ref_vel[-1]
 
-    hold_ticks = int(round(ts.hold_s * m.schedule.rate_hz))
-    chunk = max(int(round(HOLD_POLL_S * m.schedule.rate_hz)), 1)
+    hold_ticks = int(round(ts.hold_s * sampler.rate_hz))
+    chunk = max(int(round(HOLD_POLL_S * sampler.rate_hz)), 1)
 
     def hold() -> int:
         """Sample a hold, reading the encoders every HOLD_POLL_S (reference, and the watchdog's keep-alive);
@@ -69,7 +69,7 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
     for rate_outer, rate_inner, seconds in ts.segments:
         table.move_velocity(0, rate_outer, ts.accel_dps2)
         table.move_velocity(1, rate_inner, ts.accel_dps2)
-        for _ in range(int(round(seconds * m.schedule.rate_hz / ts.poll_every))):
+        for _ in range(int(round(seconds * sampler.rate_hz / ts.poll_every))):
             poll()
             sampler.run(ts.poll_every)
     table.stop()
@@ -78,7 +78,7 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
         sampler.run(ts.poll_every)
         if max(abs(v) for v in vel) == 0.0:
             break
-    for _ in range(max(int(round(m.table.settle_s * m.schedule.rate_hz / ts.poll_every)), 1)):
+    for _ in range(max(int(round(m.table.settle_s * sampler.rate_hz / ts.poll_every)), 1)):
         sampler.run(ts.poll_every)
         poll()
     phases.append(("move", 0, sampler.rows - r0))
@@ -86,10 +86,11 @@ def run_trajectory(table, board, clock: Clock, geometry: TableGeometry, m: Motio
     phases.append(("hold", 1, hold()))
     rec = sampler.take()
     table.make_safe()
-    return _session(rec, phases, np.array(ref_t), np.array(ref_pos), np.array(ref_vel), geometry, m, sampler.t0)
+    return _session(rec, phases, np.array(ref_t), np.array(ref_pos), np.array(ref_vel), geometry, sampler.rate_hz,
+                    sampler.t0)
 
 
-def _session(rec, phases, ref_t, ref_pos, ref_vel, geometry, m, sampler_t0: float) -> SessionData:
+def _session(rec, phases, ref_t, ref_pos, ref_vel, geometry, rate_hz: float, sampler_t0: float) -> SessionData:
     is_move = np.zeros(rec.t.size, bool)
     step = np.zeros(rec.t.size, int)
     k = 0
@@ -101,6 +102,6 @@ def _session(rec, phases, ref_t, ref_pos, ref_vel, geometry, m, sampler_t0: floa
     q = quat_from_matrix(geometry.rotation(angles[:, 0], angles[:, 1]))
     cols = {"accel": ["ax", "ay", "az"], "gyro": ["gx", "gy", "gz"], "mag": ["mx", "my", "mz"]}
     return SessionData(t=rec.t - rec.t[0], is_move=is_move, step=step, q_ref=q, raw=rec.samples,
-                       columns={n: cols[n] for n in rec.samples}, sample_rate_hz=m.schedule.rate_hz, table_deg=angles,
+                       columns={n: cols[n] for n in rec.samples}, sample_rate_hz=rate_hz, table_deg=angles,
                        temp_c=rec.temp_c, vsupply_v=rec.vsupply_v, source="<trajectory>",
                        meta={"clock_t0": float(rec.t[0]) + sampler_t0})

@@ -76,6 +76,7 @@ START = [
     ("r", A, 0x12, 0x04),                # SW_RESET cleared
     ("w", A, 0x12, 0x84, None),          # BOOT | IF_INC
     ("w", A, 0x12, 0x44, None),          # BDU | IF_INC
+    ("r", A, 0x63, 0xF6),                # INTERNAL_FREQ_FINE = -10: the oscillator 1.5 % slow
     ("w", A, 0x09, 0x44, None),          # FIFO_CTRL3 BDR_GY = BDR_XL = 104 Hz
     ("w", A, 0x10, 0x48, None),          # CTRL1_XL 104 Hz, FS_XL = 10 (4 g)
     ("w", A, 0x11, 0x4C, None),          # CTRL2_G 104 Hz, FS_G = 11 (2000 dps)
@@ -92,6 +93,8 @@ def test_start_up_sequence_uses_declared_fields(sleeps):
         imu.start()
     assert sleeps[:2] == [0.05, 0.05]
     assert imu.accel.read_raw() == (1, 2, 3) and imu.gyro.read_raw() == (10, 20, 30)
+    assert imu.gyro.settings()["rate_hz"] == pytest.approx(104.0 * (1 - 10 * 0.0015), rel=1e-12)
+    assert imu.settings()["odr_hz"] == 104.0
 
 
 def test_wrong_who_am_i_names_the_register(sleeps):
