@@ -61,6 +61,19 @@ def tilted(u: np.ndarray, d: np.ndarray, basis: np.ndarray | None = None) -> np.
     return u * np.cos(angle) + direction * np.sin(angle)
 
 
+def tilted_jacobian(u: np.ndarray, d: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """d tilted(u, d, basis)_k / d d_k, (k, 3, 2): Rodrigues' turn of u by v = d basis differentiated in v,
+    `-u sinc(t) v^T + sinc(t) (I - n n^T) + cos(t) n n^T` with t = |v| and n = v / t (the identity at t = 0)."""
+    v = np.einsum("ki,kij->kj", d, basis)
+    t = np.linalg.norm(v, axis=-1)
+    n = np.divide(v, t[:, None], out=np.zeros_like(v), where=t[:, None] > 0)
+    sinc = np.sinc(t / np.pi)
+    nn = n[:, :, None] * n[:, None, :]
+    dv = (-sinc[:, None, None] * u[:, :, None] * v[:, None, :] + sinc[:, None, None] * (np.eye(3) - nn)
+          + np.cos(t)[:, None, None] * nn)
+    return dv @ np.swapaxes(basis, 1, 2)
+
+
 def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_rad: np.ndarray,
               norm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """B, H, the fitted gravity directions u_k (k, 3) and details, from pose means (k, 3) with standard errors.
@@ -106,8 +119,43 @@ def fit_faces(means: np.ndarray, se: np.ndarray, ups: list[str | None], tilt_sd_
         """Standard error of each pose's calibrated mean, at least the floor for what the model leaves out."""
         return np.maximum(np.sqrt((se ** 2) @ (H ** 2).T), MEAN_SE_FLOOR * norm)
 
+    def jacobian(p):
+        """d residuals / d p, analytic: every residual is a ratio of a pose's calibrated mean (linear in B and
+        H) to its standard error (which grows with H unless floored)."""
+        B, H, d = unpack(p)
+        y = means - B
+        a = y @ H.T
+        s = sigma_phys(H)
+        free = np.sqrt((se ** 2) @ (H ** 2).T) > MEAN_SE_FLOOR * norm
+        k = len(means)
+        da = np.zeros((k, 3, 12))                                   # d a_ki / d (B, H / scale)
+        da[:, :, :3] = -H
+        for i in range(3):
+            da[:, i, 3 + 3 * i:6 + 3 * i] = y * scale
+        ds = np.zeros((k, 3, 12))                                   # d s_ki / d (H / scale)
+        for i in range(3):
+            ds[:, i, 3 + 3 * i:6 + 3 * i] = np.where(free[:, i:i + 1], se ** 2 * H[i] / s[:, i:i + 1] * scale, 0.0)
+        J = np.zeros((3 * n_known + len(unknown) + 2 * n_known, len(p)))
+        e = (a[known] - norm * tilted(nominal, d, basis))            # (n_known, 3)
+        sk = s[known]
+        face = da[known] / sk[:, :, None] - (e / sk ** 2)[:, :, None] * ds[known]
+        J[:3 * n_known, :12] = face.reshape(-1, 12)
+        du = tilted_jacobian(nominal, d, basis)                    # (n_known, 3, 2)
+        for j in range(n_known):
+            J[3 * j:3 * j + 3, 12 + 2 * j:14 + 2 * j] = -norm * du[j] / sk[j][:, None]
+        if unknown:
+            au, su = a[unknown], s[unknown]
+            na, ns = np.linalg.norm(au, axis=1), np.linalg.norm(su, axis=1)
+            dna = np.einsum("ki,kij->kj", au / na[:, None], da[unknown])
+            dns = np.einsum("ki,kij->kj", su / ns[:, None], ds[unknown])
+            J[3 * n_known:3 * n_known + len(unknown), :12] = dna / ns[:, None] - ((na - norm) / ns ** 2)[:, None] * dns
+        rows = 3 * n_known + len(unknown) + np.arange(2 * n_known)
+        J[rows, 12 + np.arange(2 * n_known)] = 1.0 / np.repeat(tilt_sd_rad[known], 2)
+        return J
+
     p0 = np.concatenate([B0, (H0 / scale).ravel(), np.zeros(2 * n_known)])
-    res = least_squares(residuals, p0, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=2000)
+    res = least_squares(residuals, p0, jac=jacobian, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14,
+                        max_nfev=2000)
     B, H, d = unpack(res.x)
     u = np.zeros_like(means)
     a = (means - B) @ H.T
