@@ -53,13 +53,14 @@ def best_rotation(S: np.ndarray, B: np.ndarray, groups: list[tuple[np.ndarray, n
     outer = np.vstack([(d[:, :, None] * ((y - B) @ S.T / norm)[:, None, :]).reshape(-1, 9) for y, d in groups])
     group = np.repeat(np.arange(len(groups)), [len(d) for _, d in groups])
     means = np.stack([np.bincount(group, outer[:, j]) for j in range(9)], axis=1) / np.bincount(group)[:, None]
-    centred = outer - means[group]
+    # |C vec(Q)| = |R vec(Q)| with C = QR: each start's fit then handles 9 numbers, not one per sample
+    triangle = np.linalg.qr(outer - means[group], mode="r")
     best, best_rms = None, np.inf
     for P in signed_permutations():
         def fun(x, P=P):
-            return centred @ (_rotation(x) @ P).ravel()
+            return triangle @ (_rotation(x) @ P).ravel()
         res = least_squares(fun, np.zeros(3), method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200)
-        rms = float(np.sqrt(np.mean(res.fun ** 2)))
+        rms = float(np.sqrt(res.fun @ res.fun / len(group)))
         if rms < best_rms:
             best, best_rms = _rotation(res.x) @ P, rms
     return best, best_rms
