@@ -37,4 +37,5 @@ env $other OPENBLAS_NUM_THREADS=1 python -m pytest -p no:cacheprovider "${worker
     tests/recordings/test_carry_weight.py tests/recordings/test_noise_terms.py \
     tests/recordings/test_noise_level_dof.py tests/recordings/test_norm_fit_uncertainty.py \
     tests/recordings/test_quasi_static.py tests/recordings/test_loo_scatter.py \
-    tests/recordings/test_g_sensitivity_calibration.py tests/recordings/test_warm_up.py
+    tests/recordings/test_g_sensitivity_calibration.py tests/recordings/test_warm_up.py \
+    tests/recordings/test_fit_jacobians.py

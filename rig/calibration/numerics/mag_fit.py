@@ -19,7 +19,7 @@ from scipy.optimize import least_squares
 from rig.calibration.numerics.ellipsoid import fit_ellipsoid, sphere_map
 from rig.calibration.numerics.fit_noise import group_sigmas, sphere_noise_bias
 from rig.calibration.numerics.mag_model import jacobian, residuals
-from rig.rotations import axis_angle_matrix
+from rig.rotations import axis_angle_matrix, skew
 
 SIGMA_FLOOR = 1e-4                 # of the field: the least a residual is trusted to (model error)
 
@@ -59,7 +59,11 @@ def best_rotation(S: np.ndarray, B: np.ndarray, groups: list[tuple[np.ndarray, n
     for P in signed_permutations():
         def fun(x, P=P):
             return triangle @ (_rotation(x) @ P).ravel()
-        res = least_squares(fun, np.zeros(3), method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200)
+
+        def jac(x, P=P):
+            return triangle @ _rotated_columns_jacobian(x, P)
+        res = least_squares(fun, np.zeros(3), jac=jac, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12,
+                            max_nfev=200)
         rms = float(np.sqrt(res.fun @ res.fun / len(group)))
         if rms < best_rms:
             best, best_rms = _rotation(res.x) @ P, rms
@@ -111,3 +115,15 @@ def joint_fit(y: np.ndarray, groups: list[tuple[np.ndarray, np.ndarray]], norm: 
 def _rotation(x: np.ndarray) -> np.ndarray:
     angle = float(np.linalg.norm(x))
     return np.eye(3) if angle == 0 else axis_angle_matrix(x / angle, angle)
+
+
+def _rotated_columns_jacobian(x: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """d vec(R(x) P) / dx (9, 3), row-major vec, R(x) = exp([x]x): each column p of P turns as
+    d(R p)/dx = -R [p]x J_r(x), with SO(3)'s right Jacobian J_r = I - a [x]x + b [x]x^2,
+    a = (1 - cos t) / t^2, b = (t - sin t) / t^3 (their series below t = 1e-4)."""
+    t = float(np.linalg.norm(x))
+    a, b = ((1 - np.cos(t)) / t ** 2, (t - np.sin(t)) / t ** 3) if t > 1e-4 else (0.5 - t * t / 24, 1 / 6 - t * t / 120)
+    K = skew(x)
+    right = np.eye(3) - a * K + b * K @ K
+    R = _rotation(x)
+    return np.stack([-R @ skew(P[:, j]) @ right for j in range(3)], axis=1).reshape(9, 3)
