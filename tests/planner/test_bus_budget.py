@@ -112,7 +112,9 @@ def test_rig_plan_refuses_a_rate_the_i2c_bus_cannot_carry(tmp_path):
     worst_s = (ITG_BURST + HMC_STATUS + HMC_DATA + (1 + 9 + 9 + 1 + 9 + 3 * 9 + 1)) / 100e3
     rate = 500
     assert worst_s * rate > 1
-    path = write_config(tmp_path, f'[unit]\nboard = "bsn"\n[schedule]\nrate_hz = {rate}\n')
+    # the ITG-3200 samples at the rate too: at its default 100 Hz the session's grid would tick at 100 Hz
+    path = write_config(tmp_path, f'[unit]\nboard = "bsn"\n[chips.gyro]\nrate_hz = {rate}\n'
+                                  f'[schedule]\nrate_hz = {rate}\n')
     out = subprocess.run([*RIG, "plan", "--config", str(path)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 2, out.stderr
     assert "Traceback" not in out.stderr
