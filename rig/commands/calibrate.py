@@ -9,7 +9,7 @@ import click
 
 from procedures.slot_session import slot_folders
 from rig.commands.common import mirrored, read_any_session, rig_config, run_session_to
-from rig.commands.plan import bus_loads
+from rig.commands.plan import bus_budget
 from rig.commands.importing import initial_rest_option, sensor_units, units_option
 from rig.exits import CommandError, Exit, FiniteFloat, command_error, plain
 
@@ -123,7 +123,7 @@ def calibrate(sim, config_path, from_dir, fmt, accel, gyro, units, initial_rest_
         config = thermal_config(sim, config_path, orientations)
     else:
         config = rig_config(config_path, orientations)
-    bus_loads(config)               # a rate the buses cannot carry is refused (exit 2) before anything moves
+    bus_budget(config)              # a rate the buses cannot carry is refused (exit 2) before anything moves
     if config.thermal is not None:
         from rig.commands.thermal_run import run_thermal_to
 

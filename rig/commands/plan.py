@@ -10,13 +10,18 @@ from __future__ import annotations
 import json
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from rig.board import i2c_clock_hz
 from rig.commands.common import rig_config
 from rig.exits import CommandError, Exit, FiniteFloat, plain
+
+if TYPE_CHECKING:
+    from rig.bus_budget import BusLoad
 
 BUDGET_HELP = "Plan for this many seconds of table time (the most accurate plan that fits)."
 TARGET_HELP = "Plan for this H error (relative RMS, %, every sensor): the shortest plan predicted to reach it."
@@ -97,56 +102,83 @@ class StillWorld:
         return ConstantSource(np.array(self.READINGS[kind]))
 
 
-def simulated_bus_loads(config):
+@dataclass(frozen=True)
+class BusBudget:
+    """The bus loads of a configuration's boards and the rate a session of it ticks at, which they are budgeted at:
+    `procedures.acquisition.grid_rate_hz` of the boards for the schedule's `requested_hz`, from the output rate the
+    gyro chips declare (`chip_hz`, None when they are read on demand). The chips are emulated with their nominal
+    oscillator, so a part's trim (read when the real hardware starts) is not in it."""
+
+    loads: list[BusLoad]
+    rate_hz: float
+    requested_hz: float
+    chip_hz: float | None
+
+    def why(self) -> str | None:
+        """Why the budgeted rate is not the configured one, or None when it is."""
+        if self.rate_hz == self.requested_hz or self.chip_hz is None:
+            return None
+        divisor = round(self.chip_hz / self.rate_hz)
+        share = "" if divisor == 1 else f" / {divisor}"
+        return (f"the session ticks at the gyro chips' output rate, {self.chip_hz:g} Hz{share}, the nearest it can "
+                f"to the configured {self.requested_hz:g} Hz")
+
+
+def simulated_bus_budget(config) -> BusBudget:
     """The bus loads of the configuration's board, measured with its own drivers on emulated chips (the transfers
-    are the drivers', so they are the real board's too); of every slot's board on its bus, with the switch's
-    selects, for a configuration of slots."""
+    are the drivers', so they are the real board's too), at the rate the session's grid will tick at; for a
+    configuration of slots, every slot's reads in slot order on the one grid (`rig.bus_budget.tick_loads`), a slot
+    behind a switch channel paying a select where the channel changes."""
     from fixtures.simrig import SimulatedBoard
-    from rig.bus_budget import tick_budget
+    from procedures.acquisition import grid_rate_hz, output_rate_hz
+    from procedures.slots import SlotsBoard
+    from rig.board import build_board
+    from rig.bus_budget import TrafficLog, board_reads, bus_names, counting_wiring, tick_loads
     from rig.clock import SimClock
 
     clock = SimClock()
-    if config.slots:
-        return slots_bus_loads(config, clock)
-    board = SimulatedBoard(config, clock, StillWorld())
-    return tick_budget(config, board.wiring(), settle=lambda: clock.sleep(1.0 / config.schedule.rate_hz))
-
-
-def slots_bus_loads(config, clock):
-    """Every slot's reads in slot order on the one grid (`rig.bus_budget.tick_loads`): a slot behind a switch channel
-    costs a select where the channel changes."""
-    from fixtures.simrig import SimulatedBoard
-    from rig.board import build_board
-    from rig.bus_budget import TrafficLog, board_reads, bus_names, counting_wiring, tick_loads
-
-    reads = []
-    for slot in config.slots:
-        cfg = config.slot_configs()[slot.name]
+    units = ([(slot.name, config.slot_configs()[slot.name], slot.mux) for slot in config.slots] if config.slots
+             else [(None, config, None)])
+    started = []
+    for name, cfg, mux in units:
         log = TrafficLog()
         i2c_name, spi_name = bus_names(cfg.chips)
         board = build_board(cfg.board, counting_wiring(SimulatedBoard(cfg, clock, StillWorld()).wiring(), log,
                                                        i2c_name, spi_name), chips=cfg.chips)
         board.start()
+        started.append((name, board, log, i2c_name, mux))
+    grid = SlotsBoard({name: board for name, board, *_ in started}) if config.slots else started[0][1]
+    requested = config.schedule.rate_hz
+    rate = grid_rate_hz(grid, requested)
+    reads = []
+    for _, board, log, i2c_name, mux in started:
         for read in board_reads(board, log, mag_every=config.schedule.mag_every,
-                                settle=lambda: clock.sleep(1.0 / config.schedule.rate_hz)):
+                                settle=lambda: clock.sleep(1.0 / rate)):
             on_i2c = any(bus == i2c_name for bus, _ in read.transfers)
-            reads.append((i2c_name, read, slot.mux[1] if slot.mux is not None and on_i2c else None))
-    return tick_loads(reads, i2c_clock=i2c_clock_hz(config.chips))
+            reads.append((i2c_name, read, mux[1] if mux is not None and on_i2c else None))
+    return BusBudget(tick_loads(reads, i2c_clock=i2c_clock_hz(config.chips)), rate, float(requested),
+                     output_rate_hz(grid, "gyro"))
 
 
-def bus_loads(config):
-    """`simulated_bus_loads`, refused (exit 2) when a bus cannot carry the schedule's rate."""
+def simulated_bus_loads(config) -> list[BusLoad]:
+    """The loads of `simulated_bus_budget`."""
+    return simulated_bus_budget(config).loads
+
+
+def bus_budget(config) -> BusBudget:
+    """`simulated_bus_budget`, refused (exit 2) when a bus cannot carry the rate the session will tick at."""
     from rig.bus_budget import refusal
 
     try:
-        loads = simulated_bus_loads(config)
+        budget = simulated_bus_budget(config)
     except ValueError as e:          # a chip setting the drivers refuse ([chips.gyro] rate_hz = -50)
         raise CommandError(f"{config.source}: {e}", Exit.BAD_INPUT) from None
-    why = refusal(loads, config.schedule.rate_hz)
+    why = refusal(budget.loads, budget.rate_hz)
     if why is not None:
-        raise CommandError(f"{config.source}: [schedule] rate_hz = {config.schedule.rate_hz:g}: {why}",
+        ticks = f" ({budget.why()})" if budget.why() else ""
+        raise CommandError(f"{config.source}: [schedule] rate_hz = {config.schedule.rate_hz:g}{ticks}: {why}",
                            Exit.BAD_INPUT)
-    return loads
+    return budget
 
 
 def load_doc(load) -> dict:
@@ -189,7 +221,7 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
     config, chosen, default, noise = planned_config(rig_config(config_path, orientations), budget_s, target_h_pct,
                                                     noise_from)
     planning_s = time.perf_counter() - started
-    loads = bus_loads(config)
+    budget = bus_budget(config)
     schedule = plan_for(config)
     t, s = config.turntable, config.schedule
     click.echo(f"{len(schedule)} orientations on a {config.board} board, holds of {s.hold_s} s at {s.rate_hz} Hz, "
@@ -205,11 +237,14 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
             click.echo(line)
     click.echo(f"estimated rig time: {chosen.eta_s:.0f} s ({chosen.eta_s / 60:.1f} min)"
                + (f"; planned in {planning_s:.2f} s" if chosen is not default else ""))
-    click.echo(f"bus load at {s.rate_hz:g} Hz (busiest tick, as % of the {1e3 / s.rate_hz:.3g} ms tick; mean; "
+    rate = budget.rate_hz
+    click.echo(f"bus load at {rate:g} Hz (busiest tick, as % of the {1e3 / rate:.3g} ms tick; mean; "
                f"I2C at {i2c_clock_hz(config.chips) // 1000} kHz):")
-    for load in loads:
-        click.echo(f"  {load.bus}: {load.worst_tick_s * 1e3:.3g} ms = {load.load(s.rate_hz) * 100:.1f} % "
-                   f"(mean {load.seconds_per_tick * s.rate_hz * 100:.1f} %), carries up to "
+    if budget.why():
+        click.echo(f"  ({budget.why()})")
+    for load in budget.loads:
+        click.echo(f"  {load.bus}: {load.worst_tick_s * 1e3:.3g} ms = {load.load(rate) * 100:.1f} % "
+                   f"(mean {load.seconds_per_tick * rate * 100:.1f} %), carries up to "
                    f"{load.max_rate_hz():g} Hz")
     slots = max(len(config.slots), SLOTS)
     per_hour = units_per_hour(chosen.eta_s, s.mount_s, slots)
@@ -218,7 +253,7 @@ def plan(config_path, orientations, budget_s, target_h_pct, noise_from, json_out
     if json_out is not None:
         doc = {"plan": chosen.to_dict(), "default": default.to_dict(), "noise": noise.sigma,
                "noise_source": noise.source, "planning_s": round(planning_s, 3), "observability": problems,
-               "bus_load": [load_doc(x) for x in loads],
+               "bus_load": [load_doc(x) for x in budget.loads], "bus_rate_hz": budget.rate_hz,
                "units_per_hour": per_hour}
         try:
             json_out.write_text(json.dumps(doc, indent=2) + "\n")

@@ -4,8 +4,10 @@ a switch, `rig plan` refusing a rate a bus cannot carry, and the prediction agai
 from __future__ import annotations
 
 import dataclasses
+import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,7 +26,7 @@ from rig.board import build_board
 from rig.bus_budget import (AUX_EVERY, CountingI2C, I2CTransfer, SpiFrame, TickRead, TrafficLog,
                             counting_wiring, refusal, tick_budget, tick_loads)
 from rig.clock import SimClock
-from rig.commands.plan import StillWorld
+from rig.commands.plan import StillWorld, simulated_bus_loads
 from rig.config import load_config
 
 RIG = [sys.executable, "-m", "rig.cli"]
@@ -110,7 +112,9 @@ def test_rig_plan_refuses_a_rate_the_i2c_bus_cannot_carry(tmp_path):
     worst_s = (ITG_BURST + HMC_STATUS + HMC_DATA + (1 + 9 + 9 + 1 + 9 + 3 * 9 + 1)) / 100e3
     rate = 500
     assert worst_s * rate > 1
-    path = write_config(tmp_path, f'[unit]\nboard = "bsn"\n[schedule]\nrate_hz = {rate}\n')
+    # the ITG-3200 samples at the rate too: at its default 100 Hz the session's grid would tick at 100 Hz
+    path = write_config(tmp_path, f'[unit]\nboard = "bsn"\n[chips.gyro]\nrate_hz = {rate}\n'
+                                  f'[schedule]\nrate_hz = {rate}\n')
     out = subprocess.run([*RIG, "plan", "--config", str(path)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 2, out.stderr
     assert "Traceback" not in out.stderr
@@ -203,3 +207,40 @@ def test_select_accounting_matches_the_wire_behind_a_real_switch():
     measured = wire_seconds(wire.entries[start:], 100e3) / ticks
     assert measured == pytest.approx(load.seconds_per_tick, rel=1e-6)
     assert load.seconds_per_tick == pytest.approx(2 * (ITG_BURST + SELECT) / 100e3, rel=1e-9)
+
+
+LSM6DSO_FOUR_SLOTS = Path(__file__).resolve().parents[2] / "benchmarks" / "lsm6dso-four-slots.toml"
+LSM6DSO_GRID_HZ = 104.0         # the LSM6DSO's output rate nearest a 100 Hz request (datasheet ODR table)
+
+
+def test_rig_plan_budgets_an_lsm6dso_board_at_the_rate_its_session_ticks_at(tmp_path):
+    doc_path = tmp_path / "plan.json"
+    out = subprocess.run([*RIG, "plan", "--config", str(LSM6DSO_FOUR_SLOTS), "--json", str(doc_path)],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "rate_hz = 100.0" in LSM6DSO_FOUR_SLOTS.read_text()
+    assert f"bus load at {LSM6DSO_GRID_HZ:g} Hz" in out.stdout
+    assert "configured 100 Hz" in out.stdout
+    doc = json.loads(doc_path.read_text())
+    assert doc["bus_rate_hz"] == pytest.approx(LSM6DSO_GRID_HZ, rel=1e-12)
+    (bus,) = doc["bus_load"]
+    line = out.stdout.split(f"  {bus['bus']}: ")[1].splitlines()[0]
+    assert f"= {bus['worst_tick_s'] * LSM6DSO_GRID_HZ * 100:.1f} %" in line
+    assert f"(mean {bus['mean_tick_s'] * LSM6DSO_GRID_HZ * 100:.1f} %)" in line
+
+
+def test_rig_plan_refuses_a_rate_the_bus_carries_but_not_the_lsm6dso_grid_it_becomes(tmp_path):
+    """Three LSM6DSO boards behind the switch at 100 kHz carry 80 Hz, but a session asked for 80 Hz ticks at the
+    chips' 104 Hz (the output rate nearest 80), which the bus cannot carry."""
+    text = LSM6DSO_FOUR_SLOTS.read_text()
+    three = text[:text.index("[[slots]]\nname = \"s4\"")]
+    three = three.replace("i2c_clock_hz = 400000", "i2c_clock_hz = 100000").replace("rate_hz = 100.0", "rate_hz = 80.0")
+    path = write_config(tmp_path, three)
+    (bus,) = simulated_bus_loads(load_config(path))
+    assert bus.load(80.0) <= 1.0 < bus.load(LSM6DSO_GRID_HZ)
+    out = subprocess.run([*RIG, "plan", "--config", str(path)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 2, out.stdout
+    assert "Traceback" not in out.stderr
+    assert "rate_hz = 80" in out.stderr and bus.bus in out.stderr
+    assert f"{bus.load(LSM6DSO_GRID_HZ) * 100:.0f} % of the 9.62 ms tick at 104 Hz" in out.stderr
+    assert f"carries at most {bus.max_rate_hz():g} Hz" in out.stderr
