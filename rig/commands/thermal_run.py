@@ -71,7 +71,8 @@ class SimulatedThermalRig:
             rig.world.env.element_temperature = self.element
         base = rig.truth_fn
         physical = {n: {"H": m.H, "B": m.B} for n, m in rig.world.sensors.items()}
-        rig.truth_fn = lambda: truth_at(base(), physical, self.effects, self.fake.die_c())
+        lag = {"element_lag_s": self.config.thermal.sim_lag_s} if self.element is not None else {}
+        rig.truth_fn = lambda: {**truth_at(base(), physical, self.effects, self.fake.die_c()), **lag}
         return rig
 
     def chamber(self) -> ChamberLink:
