@@ -86,3 +86,30 @@ def test_a_ramped_thermal_session_names_and_sizes_the_lag_its_unit_carries(tmp_p
         if THERMAL_LAG in named:
             assert named[THERMAL_LAG]["magnitude"] == pytest.approx(LAG_S, rel=0.40), (sensor, named[THERMAL_LAG])
     assert any(THERMAL_LAG in line for line in printed)
+
+
+def test_a_ramp_too_slow_to_tell_from_a_soak_is_refused_by_name(tmp_path):
+    from click.testing import CliRunner
+
+    from rig.cli import main
+
+    bad = tmp_path / "slow-ramp.toml"
+    bad.write_text('[thermal]\nsteps_c = [10.0, 30.0]\nslope_c_per_min = 0.1\nramp_c_per_min = 0.15\n[chamber]\n')
+    result = CliRunner().invoke(main, ["calibrate", "--config", str(bad), "--out", str(tmp_path / "c")])
+    assert result.exit_code == 2 and "ramp_c_per_min" in result.output and str(bad) in result.output
+    assert not (tmp_path / "c").exists()
+
+
+def test_a_move_too_short_for_the_ramp_stops_the_session_by_name_with_the_chamber_safe(tmp_path):
+    """30 to 33 C at 1 C/min: the fixture's lag keeps the die from reaching the rate before it passes the move's
+    middle; the session stops there (exit 3), the soaked step kept, and a resume is offered."""
+    config = ramped(0.0)
+    config.thermal = replace(config.thermal, steps_c=[30.0, 33.0], direction="up", ramp_c_per_min=1.0)
+    printed: list[str] = []
+    code = run_thermal_to(tmp_path / "t", config, sim=True, seed=2, progress=False,
+                          echo=lambda line="", **_: printed.append(str(line)))
+    assert code == 3, printed
+    text = "\n".join(printed)
+    assert "ramp_c_per_min" in text and "rig resume" in text, text
+    manifest = json.loads((tmp_path / "t" / "thermal.json").read_text())
+    assert [s["status"] for s in manifest["steps"]] == ["complete", "soaking", "pending"]
