@@ -9,7 +9,13 @@ written by `rig.io.calibration_json.write_calibration`). For each step not yet d
    stopped moving;
 2. the step's turntable session at that temperature (the configuration's schedule, `[thermal]` orientations and
    hold_s in place of `[schedule]`'s where given);
-3. the step's die temperature (mean and spread of the thermometer over the session's samples) into the manifest.
+3. the step's die temperature (mean and spread of the thermometer over the session's samples) and its rate during
+   the holds into the manifest.
+
+With `[thermal] ramp_c_per_min` a ramped step sits on each move between two set points (`rig.config.thermal_steps`):
+its approach is a soak at the set point before it, then the chamber ramped towards the set point after it until the
+die moves at the ramp's rate (`procedures.ramp`), so that its session runs on the ramp, centred on the move's
+middle: the known non-zero die rate a thermal lag needs to be seen.
 
 Resuming (`resume`) continues at the first step not done, always soaking again first: a chamber left safe (or a
 new process's simulated one) is back at the room's temperature. A step whose session was interrupted is finished
@@ -296,7 +302,8 @@ class ThermalSession:
         settled = soak(chamber, read_die, hw.clock, from_c, soak_settings(config))
         self._soaked(step, settled)
         self._save()
-        lead_c = 0.5 * abs(rate) / 60.0 * step_duration_s(config)
+        planned = self.manifest.get("step_plan")
+        lead_c = 0.5 * abs(rate) / 60.0 * (planned["eta_s"] if planned else step_duration_s(config))
         centre = settled.die_c + (step["set_point_c"] - from_c)
         sign = 1.0 if rate > 0 else -1.0
         t = config.thermal

@@ -152,9 +152,11 @@ def load_config(path: str | Path | None = None) -> RigConfig:
 
 
 def _check_chamber_profile(config: RigConfig, path: str | Path | None, where: str) -> None:
-    """[chamber] profile, resolved beside the configuration and read now, as the turntable's is."""
+    """[chamber] profile, resolved beside the configuration and read now, as the turntable's is; a thermal
+    session's ramp within its limit."""
     profile = config.chamber.profile if config.chamber is not None else None
     if not profile:
+        _check_ramps(config, where)
         return
     if path is not None and not Path(profile).is_absolute():
         config.chamber.profile = str(Path(path).parent / profile)
@@ -163,6 +165,17 @@ def _check_chamber_profile(config: RigConfig, path: str | Path | None, where: st
     except ValueError as e:
         raise ValueError(f"{where}: [chamber] profile = {profile!r} (a path relative to this configuration): "
                          f"{e}") from None
+    _check_ramps(config, where)
+
+
+def _check_ramps(config: RigConfig, where: str) -> None:
+    """[thermal] ramp_c_per_min within the chamber profile's `max_ramp_c_per_min`."""
+    if config.chamber is None or config.thermal is None or not config.thermal.ramp_c_per_min:
+        return
+    top = load_chamber_profile(config.chamber.profile).max_ramp_c_per_min
+    if config.thermal.ramp_c_per_min > top:
+        raise ValueError(f"{where}: [thermal] ramp_c_per_min = {config.thermal.ramp_c_per_min!r} is beyond the "
+                         f"chamber's {top:g} C/min (its profile's max_ramp_c_per_min)")
 
 
 @dataclass(frozen=True)

@@ -113,3 +113,20 @@ def test_a_move_too_short_for_the_ramp_stops_the_session_by_name_with_the_chambe
     assert "ramp_c_per_min" in text and "rig resume" in text, text
     manifest = json.loads((tmp_path / "t" / "thermal.json").read_text())
     assert [s["status"] for s in manifest["steps"]] == ["complete", "soaking", "pending"]
+
+
+def test_a_ramp_beyond_the_chambers_limit_is_refused_by_name(tmp_path):
+    from importlib import resources
+
+    from rig.config import load_config
+
+    packaged = resources.files("rig.chamber").joinpath("profiles", "watlow-f4t.toml").read_text()
+    limit = next(line for line in packaged.splitlines() if line.startswith("max_ramp_c_per_min"))
+    (tmp_path / "slow-chamber.toml").write_text(packaged.replace(limit, "max_ramp_c_per_min = 0.4"))
+    config = tmp_path / "rig.toml"
+    config.write_text('[thermal]\nsteps_c = [30.0, 70.0]\nslope_c_per_min = 0.02\nramp_c_per_min = 0.5\n'
+                      '[chamber]\nprofile = "slow-chamber.toml"\n')
+    with pytest.raises(ValueError, match=r"rig\.toml: \[thermal\] ramp_c_per_min = 0\.5 .*0\.4 C/min"):
+        load_config(config)
+    config.write_text(config.read_text().replace("ramp_c_per_min = 0.5", "ramp_c_per_min = 0.3"))
+    assert load_config(config).thermal.ramp_c_per_min == 0.3
