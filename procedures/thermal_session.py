@@ -44,7 +44,8 @@ from rig.calibration.thermal import ThermalModel, ThermalStep, fit_thermal_model
 from rig.chamber.client import ChamberLink
 from rig.chamber.errors import ChamberError, CommunicationError
 from rig.clock import Clock
-from rig.config import RigConfig, config_from_dict, thermal_steps
+from rig.config import RigConfig, config_from_dict
+from rig.config import thermal_steps as session_steps
 from rig.discrepancy.thermal import SweptStep, report_lines, thermal_causes
 from rig.discrepancy.thermal.sweeps import SAME_SET_POINT_C
 from rig.errors import InputError, RigError, signal_name
@@ -170,7 +171,7 @@ class ThermalSession:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise NotASession(f"{self.folder}: cannot create the session folder: {exc.strerror}") from None
-        planned = thermal_steps(config.thermal)
+        planned = session_steps(config.thermal)
         points = [sp for sp, _ in planned]
         self.manifest = {
             "schema": SCHEMA, "created_utc": utc_now(), "status": "running", "status_reason": "",
