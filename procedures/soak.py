@@ -50,6 +50,7 @@ class Soak:
     air_c: float
     readings: list[tuple[float, float]] = field(default_factory=list)     # (clock s, die C)
     die_start_c: float = float("nan")     # the die's first reading: where the approach to the set point began
+    ramp_c_per_min: float = 0.0           # the controller's ramp towards the set point (a ramp, procedures.ramp)
 
     @property
     def duration_s(self) -> float:
@@ -59,7 +60,7 @@ class Soak:
         return {"set_point_c": self.set_point_c, "start_s": round(self.start_s, 3), "end_s": round(self.end_s, 3),
                 "duration_s": round(self.duration_s, 3), "die_slope_c_per_min": round(self.slope_c_per_min, 5),
                 "die_c": round(self.die_c, 4), "air_c": round(self.air_c, 4), "readings": len(self.readings),
-                "die_start_c": round(self.die_start_c, 4)}
+                "die_start_c": round(self.die_start_c, 4), "ramp_c_per_min": self.ramp_c_per_min}
 
 
 def window_slope(readings: list[tuple[float, float]], now: float, window_s: float) -> float | None:

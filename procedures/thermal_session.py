@@ -9,7 +9,13 @@ written by `rig.io.calibration_json.write_calibration`). For each step not yet d
    stopped moving;
 2. the step's turntable session at that temperature (the configuration's schedule, `[thermal]` orientations and
    hold_s in place of `[schedule]`'s where given);
-3. the step's die temperature (mean and spread of the thermometer over the session's samples) into the manifest.
+3. the step's die temperature (mean and spread of the thermometer over the session's samples) and its rate during
+   the holds into the manifest.
+
+With `[thermal] ramp_c_per_min` a ramped step sits on each move between two set points (`rig.config.thermal_steps`):
+its approach is a soak at the set point before it, then the chamber ramped towards the set point after it until the
+die moves at the ramp's rate (`procedures.ramp`), so that its session runs on the ramp, centred on the move's
+middle: the known non-zero die rate a thermal lag needs to be seen.
 
 Resuming (`resume`) continues at the first step not done, always soaking again first: a chamber left safe (or a
 new process's simulated one) is back at the room's temperature. A step whose session was interrupted is finished
@@ -32,19 +38,22 @@ import numpy as np
 
 from procedures.orchestrator import Outcome, RigFactory, RigSpec, SessionOrchestrator
 from procedures.session import write_json
-from procedures.soak import SoakSettings, soak
+from procedures.ramp import RampSettings, ramp_until
+from procedures.soak import Soak, SoakSettings, soak
 from rig.calibration.thermal import ThermalModel, ThermalStep, fit_thermal_model
 from rig.chamber.client import ChamberLink
 from rig.chamber.errors import ChamberError, CommunicationError
 from rig.clock import Clock
-from rig.config import RigConfig, config_from_dict, thermal_set_points
+from rig.config import RigConfig, config_from_dict
+from rig.config import thermal_steps as session_steps
 from rig.discrepancy.thermal import SweptStep, report_lines, thermal_causes
 from rig.discrepancy.thermal.sweeps import SAME_SET_POINT_C
 from rig.errors import InputError, RigError, signal_name
 from rig.io.calibration_json import read_calibration, triads_from_calibration, write_calibration
 from rig.locks import session_lock, table_lock
 from rig.pipeline.writing import CALIBRATION_FILE
-from rig.planner import Plan, applied, plan_for_target
+from rig.planner import Plan, applied, eta, plan_for_target
+from rig.schedule import plan_orientations
 from rig.store import SESSION_FILE, NotASession, SessionStore
 from rig.store.schema import utc_now
 from rig.store.status import FINISHED_STATUSES
@@ -120,6 +129,12 @@ def step_config(config: RigConfig) -> RigConfig:
     return replace(config, schedule=schedule)
 
 
+def step_duration_s(config: RigConfig) -> float:
+    """A step's predicted table time (`rig.planner.eta` of its schedule), s."""
+    c = step_config(config)
+    return eta(c, plan_orientations(c.schedule.orientations), c.schedule.hold_s)
+
+
 def soak_settings(config: RigConfig) -> SoakSettings:
     t, c = config.thermal, config.chamber
     return SoakSettings(slope_c_per_min=t.slope_c_per_min, window_s=t.window_s, poll_s=t.poll_s,
@@ -156,15 +171,16 @@ class ThermalSession:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise NotASession(f"{self.folder}: cannot create the session folder: {exc.strerror}") from None
-        points = thermal_set_points(config.thermal)
+        planned = session_steps(config.thermal)
+        points = [sp for sp, _ in planned]
         self.manifest = {
             "schema": SCHEMA, "created_utc": utc_now(), "status": "running", "status_reason": "",
             "config": config.to_dict(),
             "spec": {"simulated": spec.simulated, "seed": spec.seed, "time_scale": spec.time_scale,
                      "trial": spec.trial},
             "set_points_c": points, "runs": 0, "chamber_time_s": 0.0, "table_time_s": 0.0,
-            "steps": [{"index": k, "set_point_c": sp, "folder": step_folder_name(k, sp), "status": "pending",
-                       "soaks": []} for k, sp in enumerate(points)]}
+            "steps": [{"index": k, "set_point_c": sp, "ramp_c_per_min": ramp, "folder": step_folder_name(k, sp),
+                       "status": "pending", "soaks": []} for k, (sp, ramp) in enumerate(planned)]}
         if plan is not None:
             self.manifest["step_plan"] = {"target_H_std_pct": config.thermal.step_H_std_pct, **plan.to_dict()}
         with session_lock(self.folder):
@@ -233,11 +249,15 @@ class ThermalSession:
         k, n = step["index"], len(self.manifest["steps"])
         step["status"] = "soaking"
         self._save()
+        ramp = float(step.get("ramp_c_per_min") or 0.0)
         with table_lock(config.turntable.url), hw.build_rig(config, spec) as rig:
             rig.board.start()
-            done = soak(chamber, rig.board.read_temperature, hw.clock, step["set_point_c"], soak_settings(config))
-        self._add_time(done.duration_s)
-        step["soaks"].append({"run": self.manifest["runs"], **done.to_dict()})
+            if ramp:
+                done = self._approach_on_ramp(config, hw, chamber, rig.board.read_temperature, step)
+            else:
+                done = soak(chamber, rig.board.read_temperature, hw.clock, step["set_point_c"],
+                            soak_settings(config))
+                self._soaked(step, done)
         step["status"] = "recording"
         self._save()
         self.events("soaked", {"step": k, "steps": n, "soak": done})
@@ -249,6 +269,8 @@ class ThermalSession:
             outcome = self._record_step(orchestrator, folder, config, spec)
         finally:
             self._add_time(hw.clock.now() - t0)
+            if ramp:
+                chamber.ramp_rate(config.chamber.ramp_c_per_min or None)
         step["status"] = outcome.status
         if outcome.status in DONE:
             step.update(self._step_figures(folder, outcome))
@@ -264,6 +286,33 @@ class ThermalSession:
         reason = f"{where}: {outcome.reason}"
         self._mark("failed", reason)
         return self._outcome("failed", reason, error=outcome.error, error_log=outcome.error_log)
+
+    def _soaked(self, step: dict, done: Soak) -> None:
+        self._add_time(done.duration_s)
+        step["soaks"].append({"run": self.manifest["runs"], **done.to_dict()})
+
+    def _approach_on_ramp(self, config: RigConfig, hw: ThermalHardware, chamber: ChamberLink,
+                          read_die: Callable[[], float | None], step: dict) -> Soak:
+        """A ramped step's approach: soaked at the set point before it, then the chamber ramped towards the set
+        point after it until the die moves at the ramp's rate, timed so that the step's schedule runs centred on
+        the step's temperature (halfway, in the die's own reading: the die at the first set point plus half the
+        move); both kept in the step's `soaks`."""
+        steps = self.manifest["steps"]
+        k, rate = step["index"], float(step["ramp_c_per_min"])
+        from_c, to_c = steps[k - 1]["set_point_c"], steps[k + 1]["set_point_c"]
+        settled = soak(chamber, read_die, hw.clock, from_c, soak_settings(config))
+        self._soaked(step, settled)
+        self._save()
+        planned = self.manifest.get("step_plan")
+        lead_c = 0.5 * abs(rate) / 60.0 * (planned["eta_s"] if planned else step_duration_s(config))
+        centre = settled.die_c + (step["set_point_c"] - from_c)
+        sign = 1.0 if rate > 0 else -1.0
+        t = config.thermal
+        settings = RampSettings(rate, t.slope_c_per_min, t.window_s, t.poll_s, t.max_soak_s)
+        done = ramp_until(chamber, read_die, hw.clock, to_c, centre - sign * lead_c, centre + sign * lead_c,
+                          settings)
+        self._soaked(step, done)
+        return done
 
     def _record_step(self, orchestrator: SessionOrchestrator, folder: Path, config: RigConfig,
                      spec: RigSpec) -> Outcome:
@@ -463,8 +512,12 @@ def step_line(step: dict, n: int) -> str:
     if step.get("soaks"):
         last = step["soaks"][-1]
         soaked = sum(s["duration_s"] for s in step["soaks"])
-        parts.append(f"soaked {soaked:.0f} s (die slope {last['die_slope_c_per_min']:+.3f} C/min"
-                     + (f", {len(step['soaks'])} soaks" if len(step["soaks"]) > 1 else "") + ")")
+        if step.get("ramp_c_per_min"):
+            parts.append(f"ramped at {step['ramp_c_per_min']:+g} C/min after {soaked:.0f} s (die slope "
+                         f"{last['die_slope_c_per_min']:+.3f} C/min)")
+        else:
+            parts.append(f"soaked {soaked:.0f} s (die slope {last['die_slope_c_per_min']:+.3f} C/min"
+                         + (f", {len(step['soaks'])} soaks" if len(step["soaks"]) > 1 else "") + ")")
     die = step.get("die_c") or {}
     if "mean" in die:
         parts.append(f"die {die['mean']:.2f} +- {die['std']:.3f} C")

@@ -70,6 +70,8 @@ class ThermalConfig:
     hold_s: float = 0.0                # each step's hold; 0: [schedule] hold_s
     step_H_std_pct: float = 0.0        # with orientations 0: the planner's shortest schedule predicting this H error
     sim_hysteresis: bool = False       # the simulated unit carries a hysteresis between up and down sweeps
+    ramp_c_per_min: float = 0.0        # >0: a ramped step on each move between set points, C/min; 0: all soaked
+    sim_lag_s: float = 0.0             # the simulated unit's sensing elements lag its die thermometer by this, s
 
 
 THERMAL_DIRECTIONS = ("up", "down", "up-down")
@@ -150,9 +152,11 @@ def load_config(path: str | Path | None = None) -> RigConfig:
 
 
 def _check_chamber_profile(config: RigConfig, path: str | Path | None, where: str) -> None:
-    """[chamber] profile, resolved beside the configuration and read now, as the turntable's is."""
+    """[chamber] profile, resolved beside the configuration and read now, as the turntable's is; a thermal
+    session's ramp within its limit."""
     profile = config.chamber.profile if config.chamber is not None else None
     if not profile:
+        _check_ramps(config, where)
         return
     if path is not None and not Path(profile).is_absolute():
         config.chamber.profile = str(Path(path).parent / profile)
@@ -161,6 +165,17 @@ def _check_chamber_profile(config: RigConfig, path: str | Path | None, where: st
     except ValueError as e:
         raise ValueError(f"{where}: [chamber] profile = {profile!r} (a path relative to this configuration): "
                          f"{e}") from None
+    _check_ramps(config, where)
+
+
+def _check_ramps(config: RigConfig, where: str) -> None:
+    """[thermal] ramp_c_per_min within the chamber profile's `max_ramp_c_per_min`."""
+    if config.chamber is None or config.thermal is None or not config.thermal.ramp_c_per_min:
+        return
+    top = load_chamber_profile(config.chamber.profile).max_ramp_c_per_min
+    if config.thermal.ramp_c_per_min > top:
+        raise ValueError(f"{where}: [thermal] ramp_c_per_min = {config.thermal.ramp_c_per_min!r} is beyond the "
+                         f"chamber's {top:g} C/min (its profile's max_ramp_c_per_min)")
 
 
 @dataclass(frozen=True)
@@ -270,6 +285,8 @@ RANGES = {  # (section, key): (lowest, highest, why)
     ("thermal", "orientations"): (0, 64, "0: [schedule] orientations; else 9..64"),
     ("thermal", "hold_s"): (0.0, 3600.0, "seconds; 0: [schedule] hold_s"),
     ("thermal", "step_H_std_pct"): (0.0, 100.0, "percent; 0: no planning"),
+    ("thermal", "ramp_c_per_min"): (0.0, 10.0, "C/min; 0: every step soaked; else above twice slope_c_per_min"),
+    ("thermal", "sim_lag_s"): (0.0, 3600.0, "seconds; 0: no lag"),
 }
 
 
@@ -379,6 +396,11 @@ def _thermal(raw: dict, where: str) -> ThermalConfig:
         raise ValueError(f"{where}: [thermal] orientations = {t.orientations}: 0 ([schedule]'s) or 9..64")
     if t.max_soak_s < t.min_soak_s:
         raise ValueError(f"{where}: [thermal] max_soak_s = {t.max_soak_s!r} is below min_soak_s = {t.min_soak_s!r}")
+    if t.ramp_c_per_min and not t.ramp_c_per_min > 2 * t.slope_c_per_min:
+        raise ValueError(f"{where}: [thermal] ramp_c_per_min = {t.ramp_c_per_min!r} must be 0 (every step soaked) "
+                         f"or above twice slope_c_per_min = {t.slope_c_per_min!r}: a ramped step's die moves at the "
+                         "ramp's rate within slope_c_per_min, a soaked step's within slope_c_per_min of standing "
+                         "still, and the two must not overlap")
     return t
 
 
@@ -392,6 +414,19 @@ def thermal_set_points(t: ThermalConfig) -> list[float]:
     if t.direction == "up-down":
         return points + points[-2::-1]
     return points
+
+
+def thermal_steps(t: ThermalConfig) -> list[tuple[float, float]]:
+    """The steps of a thermal session in the order they run, as (temperature C, ramp C/min): a soaked step at each
+    set point (`thermal_set_points`, ramp 0) and, with `ramp_c_per_min`, a ramped step on each move between two
+    set points, centred halfway between them, its ramp signed with the move (rising positive)."""
+    points = thermal_set_points(t)
+    out = [(points[0], 0.0)]
+    for a, b in zip(points, points[1:]):
+        if t.ramp_c_per_min and a != b:
+            out.append((0.5 * (a + b), math.copysign(t.ramp_c_per_min, b - a)))
+        out.append((b, 0.0))
+    return out
 
 
 def _check_slots(cfg: RigConfig, where: str) -> None:

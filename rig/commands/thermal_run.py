@@ -3,7 +3,9 @@ hardware, real or simulated, the stop signals, the lines it prints and its exit 
 
 The simulated thermal rig is the simulated rig of `rig.assembly.build_sim` on one virtual clock with a fake
 chamber (`fixtures.chamber`) served over Modbus TCP on loopback: the unit's die is the chamber's die, so the chips'
-thermometers read it, and the unit carries the temperature curves its seed draws (`fixtures.world.heat`).
+thermometers read it, and the unit carries the temperature curves its seed draws (`fixtures.world.heat`); with
+`[thermal] sim_lag_s` its sensing elements follow the die through a lag (`fixtures.world.heat.LaggedElement`),
+the temperature those curves see, while the thermometers read the die itself.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from pathlib import Path
 import click
 
 from fixtures.chamber import ChamberServer, FakeChamber
-from fixtures.world.heat import truth_at, unit_thermal_effects
+from fixtures.world.heat import LaggedElement, truth_at, unit_thermal_effects
 from procedures.orchestrator import RigSpec
 from procedures.thermal_session import MANIFEST, ThermalOutcome, ThermalSession
 from rig import assembly
@@ -47,6 +49,8 @@ class SimulatedThermalRig:
         self.fake = FakeChamber(self.clock, profile=config.chamber.profile)
         self.server = ChamberServer(self.fake)
         self.effects = unit_thermal_effects(spec.seed or 0, hysteresis=config.thermal.sim_hysteresis)
+        lag = config.thermal.sim_lag_s
+        self.element = LaggedElement(self.fake.die_at, lag, self.clock.now()) if lag else None
         self.rigs_built = 0
 
     def __enter__(self) -> "SimulatedThermalRig":
@@ -63,9 +67,12 @@ class SimulatedThermalRig:
         rig = assembly.build_sim(config, seed=spec.seed or 0, trial=spec.trial, run=getattr(spec, "run", 0),
                                  clock=self.clock, temperature=self.fake.die_at, effects=self.effects,
                                  noise_stream=self.rigs_built)
+        if self.element is not None:
+            rig.world.env.element_temperature = self.element
         base = rig.truth_fn
         physical = {n: {"H": m.H, "B": m.B} for n, m in rig.world.sensors.items()}
-        rig.truth_fn = lambda: truth_at(base(), physical, self.effects, self.fake.die_c())
+        lag = {"element_lag_s": self.config.thermal.sim_lag_s} if self.element is not None else {}
+        rig.truth_fn = lambda: {**truth_at(base(), physical, self.effects, self.fake.die_c()), **lag}
         return rig
 
     def chamber(self) -> ChamberLink:
@@ -113,7 +120,9 @@ def run_thermal_to(out: Path, config: RigConfig | None, *, sim: bool = False, se
         bar.close()
         if kind == "soaked":
             s = data["soak"]
-            echo(f"step {data['step'] + 1}/{data['steps']}: soaked at {s.set_point_c:g} C in {s.duration_s:.0f} s "
+            done = (f"ramping at {s.ramp_c_per_min:+g} C/min towards {s.set_point_c:g} C after" if s.ramp_c_per_min
+                    else f"soaked at {s.set_point_c:g} C in")
+            echo(f"step {data['step'] + 1}/{data['steps']}: {done} {s.duration_s:.0f} s "
                  f"(die {s.die_c:.2f} C, slope {s.slope_c_per_min:+.3f} C/min)")
         elif kind == "step":
             step = data["data"]

@@ -21,7 +21,8 @@ PER_SENSOR = {"temperature_model", "causes", "step_plan.predicted"}
 OBJECT_LISTS = {"steps", "soaks", "findings", "undistinguished"}   # lists of objects, even when empty
 OPAQUE = {"config"}                           # the configuration: the configuration reference's keys
 FINDING_LISTS = {"undistinguished[]": "findings[]"}     # documented once, as findings[]
-# Written only on a thermal_lag finding; no simulated unit carries a thermal lag, so no session here writes it.
+# Written only on a thermal_lag finding: the sessions here carry no lag (tests/procedures/test_thermal_session_lag.py
+# runs one that does).
 LAG_ONLY = {"causes.<sensor>.findings[].params.tau_s"}
 
 
