@@ -1,14 +1,19 @@
 """Quaternions, rotation vectors and matrices in the project's convention, by scipy's `Rotation`.
 
 Quaternions are scalar-first `(w, x, y, z)`, Hamilton product, stored with `w >= 0` (docs/reference/conventions.md).
-Functions accept a single item or a stack of any shape; the conversions are scipy's (`Rotation`, imported here),
-the product and the conjugate are the textbook formulas on arrays.
+Functions accept a single item or a stack of any shape; the conversions are scipy's (`Rotation`, imported where
+first used: scipy.spatial takes most of a second to import, which commands that only read and write files, such as
+`rig import`, would pay for nothing), the product and the conjugate are the textbook formulas on arrays.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+
+def _scipy_rotation():
+    from scipy.spatial.transform import Rotation
+    return Rotation
 
 
 def _stacked(x: np.ndarray, width: int, what: str) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -25,14 +30,14 @@ def quat_from_matrix(R: np.ndarray) -> np.ndarray:
     R = np.asarray(R, dtype=float)
     if R.shape[-2:] != (3, 3):
         raise ValueError(f"expected rotation matrices of shape (..., 3, 3), got {R.shape}")
-    q = Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat(scalar_first=True).reshape(R.shape[:-2] + (4,))
+    q = _scipy_rotation().from_matrix(R.reshape(-1, 3, 3)).as_quat(scalar_first=True).reshape(R.shape[:-2] + (4,))
     return np.where(q[..., :1] < 0, -q, q)
 
 
 def matrix_from_quat(q: np.ndarray) -> np.ndarray:
     """Rotation matrix of scalar-first quaternion(s), normalised first."""
     flat, lead = _stacked(q, 4, "quaternions")
-    return Rotation.from_quat(flat, scalar_first=True).as_matrix().reshape(lead + (3, 3))
+    return _scipy_rotation().from_quat(flat, scalar_first=True).as_matrix().reshape(lead + (3, 3))
 
 def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product p * q for scalar-first quaternions."""
@@ -55,7 +60,7 @@ def quat_conjugate(q: np.ndarray) -> np.ndarray:
 def rotvec_from_quat(q: np.ndarray) -> np.ndarray:
     """Rotation vector(s), angle in [0, pi], of scalar-first quaternion(s), normalised first."""
     flat, lead = _stacked(q, 4, "quaternions")
-    return Rotation.from_quat(flat, scalar_first=True).as_rotvec().reshape(lead + (3,))
+    return _scipy_rotation().from_quat(flat, scalar_first=True).as_rotvec().reshape(lead + (3,))
 
 
 def rotvec_from_matrix(R: np.ndarray) -> np.ndarray:
@@ -65,15 +70,15 @@ def rotvec_from_matrix(R: np.ndarray) -> np.ndarray:
 def quat_from_rotvec(v: np.ndarray) -> np.ndarray:
     """Scalar-first unit quaternion(s) of rotation vector(s) (w may be negative beyond pi)."""
     flat, lead = _stacked(v, 3, "rotation vectors")
-    return Rotation.from_rotvec(flat).as_quat(canonical=False, scalar_first=True).reshape(lead + (4,))
+    return _scipy_rotation().from_rotvec(flat).as_quat(canonical=False, scalar_first=True).reshape(lead + (4,))
 
 
 def matrix_from_rotvec(v: np.ndarray) -> np.ndarray:
     flat, lead = _stacked(v, 3, "rotation vectors")
-    return Rotation.from_rotvec(flat).as_matrix().reshape(lead + (3, 3))
+    return _scipy_rotation().from_rotvec(flat).as_matrix().reshape(lead + (3, 3))
 
 
 def cube_rotations() -> np.ndarray:
     """The 24 rotations that map the coordinate axes onto +-axes (the octahedral group), (24, 3, 3), exact, in
     the order of scipy's `Rotation.create_group("O")` (ties in a search over them break alike)."""
-    return np.round(Rotation.create_group("O").as_matrix()) + 0.0
+    return np.round(_scipy_rotation().create_group("O").as_matrix()) + 0.0

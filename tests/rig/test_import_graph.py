@@ -29,6 +29,9 @@ LAZY_ALLOWED = {
                                                            "which only the turntable gyro's UKF uses; every "
                                                            "calibration imports the module",
     ("rig.noise.statistics", "scipy.signal"): "start-up: scipy.signal only for a spectrum",
+    ("rig.quaternions", "scipy.spatial.transform"): "start-up: scipy.spatial (most of a second) only when a "
+                                                     "rotation is converted; `rig import` and the lab's commands "
+                                                     "read and write files without one",
     ("rig.discrepancy.plots", "matplotlib"): "start-up: matplotlib only when plots are written",
     ("rig.discrepancy.plots", "matplotlib.pyplot"): "start-up: matplotlib only when plots are written",
     ("rig.report.calibration_report", "rig.report.plots"): "session speed: the report's figures (matplotlib) only when drawn, after the result",
