@@ -19,11 +19,8 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-import numpy as np
-
-from procedures.soak import Soak, SoakNotSettled, window_slope
+from procedures.soak import Soak, SoakNotSettled, watch_die
 from rig.chamber.client import ChamberLink
-from rig.chamber.errors import ChamberAlarm
 from rig.clock import Clock
 
 
@@ -46,23 +43,12 @@ def ramp_until(chamber: ChamberLink, read_die: Callable[[], float | None], clock
     chamber.ramp_rate(abs(rate))
     chamber.set_point(to_c)
     chamber.run()
-    readings: list[tuple[float, float]] = []
-    first: float | None = None
-    while True:
-        now = clock.now()
-        status = chamber.status()
-        if status.alarm:
-            raise ChamberAlarm(f"{chamber.url}: the controller reports {status.alarm} while ramping towards "
-                               f"{to_c:g} C")
-        die = read_die()
-        if die is None or not np.isfinite(die):
-            raise SoakNotSettled("the unit's thermometer gives no reading; a ramp is judged from it")
-        readings.append((now, float(die)))
-        first = float(die) if first is None else first
-        slope = window_slope(readings, now, settings.window_s)
+    for r in watch_die(chamber, read_die, clock, settings.window_s, settings.poll_s,
+                       f"ramping towards {to_c:g} C"):
+        slope, die = r.slope_c_per_min, r.die_c
         steady = slope is not None and abs(slope - rate) < settings.slope_c_per_min
         if steady and sign * (die - start_c) >= 0:
-            return Soak(to_c, start, now, slope, float(die), status.air_c, readings, first, rate)
+            return Soak(to_c, start, r.now, slope, die, r.status.air_c, r.readings, r.die_start_c, rate)
         said = "no slope yet" if slope is None else f"{slope:+.3f} C/min"
         if sign * (die - give_up_c) > 0:
             raise SoakNotSettled(
@@ -70,10 +56,9 @@ def ramp_until(chamber: ChamberLink, read_die: Callable[[], float | None], clock
                 f"{rate:+g} C/min (die {die:.2f} C, {said}, within {settings.slope_c_per_min:g} C/min): the move "
                 "between set points is too short for the chamber to reach the rate; lower [thermal] "
                 "ramp_c_per_min or space the set points further apart")
-        if now - start >= settings.max_s:
+        if r.now - start >= settings.max_s:
             raise SoakNotSettled(
                 f"not ramping steadily at {rate:+g} C/min towards {to_c:g} C after {settings.max_s:g} s: die "
-                f"{die:.2f} C ({said}), air {status.air_c:.2f} C; the chamber cannot follow the ramp, or "
+                f"{die:.2f} C ({said}), air {r.status.air_c:.2f} C; the chamber cannot follow the ramp, or "
                 "[thermal] max_soak_s is too short for the fixture")
-        readings = [r for r in readings if r[0] >= now - settings.window_s - settings.poll_s]
-        clock.sleep(settings.poll_s)
+    raise AssertionError("unreachable: watch_die polls until its caller returns or raises")

@@ -14,11 +14,11 @@ Not soaked after `max_soak_s`: `SoakNotSettled`, a fault (exit 3). A controller 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 
-from rig.chamber.client import ChamberLink
+from rig.chamber.client import ChamberLink, ChamberStatus
 from rig.chamber.errors import ChamberAlarm
 from rig.clock import Clock
 from rig.errors import RigError
@@ -75,6 +75,44 @@ def window_slope(readings: list[tuple[float, float]], now: float, window_s: floa
     return float(np.polyfit(t - t[0], T, 1)[0] * 60.0)
 
 
+@dataclass
+class DieReading:
+    """One poll of a soak or a ramp: the clock, the die and the chamber as read, the die's slope over the window
+    (None until the readings cover it), the readings so far and the die's first reading."""
+
+    now: float
+    die_c: float
+    status: ChamberStatus
+    slope_c_per_min: float | None
+    readings: list[tuple[float, float]]
+    die_start_c: float
+
+
+def watch_die(chamber: ChamberLink, read_die: Callable[[], float | None], clock: Clock, window_s: float,
+              poll_s: float, doing: str, on_reading: Callable[[float, float, float], None] | None = None
+              ) -> Iterator[DieReading]:
+    """Every `poll_s`: the chamber's status and the die, with the die's slope over `window_s`; a controller alarm
+    raises `ChamberAlarm`, a thermometer without a reading `SoakNotSettled`. `doing` ("soaking at 25 C") names
+    the wait in those messages; `on_reading(t, die, air)` sees every reading."""
+    readings: list[tuple[float, float]] = []
+    first: float | None = None
+    while True:
+        now = clock.now()
+        status = chamber.status()
+        if status.alarm:
+            raise ChamberAlarm(f"{chamber.url}: the controller reports {status.alarm} while {doing}")
+        die = read_die()
+        if die is None or not np.isfinite(die):
+            raise SoakNotSettled(f"the unit's thermometer gives no reading while {doing}; the wait is judged from it")
+        readings.append((now, float(die)))
+        first = float(die) if first is None else first
+        if on_reading is not None:
+            on_reading(now, float(die), status.air_c)
+        yield DieReading(now, float(die), status, window_slope(readings, now, window_s), readings, first)
+        readings = [r for r in readings if r[0] >= now - window_s - poll_s]
+        clock.sleep(poll_s)
+
+
 def soak(chamber: ChamberLink, read_die: Callable[[], float | None], clock: Clock, set_point_c: float,
          settings: SoakSettings, on_reading: Callable[[float, float, float], None] | None = None) -> Soak:
     """Write the set point, run the chamber and wait until the die is soaked (module docstring).
@@ -83,31 +121,17 @@ def soak(chamber: ChamberLink, read_die: Callable[[], float | None], clock: Cloc
     start = clock.now()
     chamber.set_point(set_point_c)
     chamber.run()
-    readings: list[tuple[float, float]] = []
-    first: float | None = None
-    while True:
-        now = clock.now()
-        status = chamber.status()
-        if status.alarm:
-            raise ChamberAlarm(f"{chamber.url}: the controller reports {status.alarm} while soaking at "
-                               f"{set_point_c:g} C")
-        die = read_die()
-        if die is None or not np.isfinite(die):
-            raise SoakNotSettled("the unit's thermometer gives no reading; a soak is judged from it")
-        readings.append((now, float(die)))
-        first = float(die) if first is None else first
-        if on_reading is not None:
-            on_reading(now, float(die), status.air_c)
-        slope = window_slope(readings, now, settings.window_s)
-        air_there = abs(status.air_c - set_point_c) <= settings.tolerance_c
+    for r in watch_die(chamber, read_die, clock, settings.window_s, settings.poll_s,
+                       f"soaking at {set_point_c:g} C", on_reading):
+        slope, air = r.slope_c_per_min, r.status.air_c
+        air_there = abs(air - set_point_c) <= settings.tolerance_c
         if (air_there and slope is not None and abs(slope) < settings.slope_c_per_min
-                and now - start >= settings.min_soak_s):
-            return Soak(set_point_c, start, now, slope, float(die), status.air_c, readings, first)
-        if now - start >= settings.max_soak_s:
+                and r.now - start >= settings.min_soak_s):
+            return Soak(set_point_c, start, r.now, slope, r.die_c, air, r.readings, r.die_start_c)
+        if r.now - start >= settings.max_soak_s:
             said = "no slope yet" if slope is None else f"{slope:+.3f} C/min"
             raise SoakNotSettled(
-                f"not soaked at {set_point_c:g} C after {settings.max_soak_s:g} s: die {die:.2f} C ({said}, "
-                f"threshold {settings.slope_c_per_min:g} C/min), air {status.air_c:.2f} C; the chamber cannot hold "
+                f"not soaked at {set_point_c:g} C after {settings.max_soak_s:g} s: die {r.die_c:.2f} C ({said}, "
+                f"threshold {settings.slope_c_per_min:g} C/min), air {air:.2f} C; the chamber cannot hold "
                 "the set point, or [thermal] max_soak_s is too short for the fixture")
-        readings = [r for r in readings if r[0] >= now - settings.window_s - settings.poll_s]
-        clock.sleep(settings.poll_s)
+    raise AssertionError("unreachable: watch_die polls until its caller returns or raises")
