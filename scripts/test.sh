@@ -20,17 +20,15 @@ fi
 . .venv/bin/activate
 python -m pip install -q --upgrade pip >/dev/null
 python -m pip install -q -e '.[test]'
-# A whole run (no arguments) spreads the test files over one worker more than the machine has cores (many tests wait
-# on a subprocess, a server or a browser, and the extra worker uses that time; at most four: each worker may start
-# its own PostgreSQL server and browser), then runs the numerical tests a second time on another BLAS kernel of this CPU
+# A whole run (no arguments) spreads the test files over the machine's cores (at most four: each worker may start its
+# own PostgreSQL server and browser), then runs the numerical tests a second time on another BLAS kernel of this CPU
 # and one BLAS thread, so that a test which holds only for one machine's floating point fails here first: the fits
 # and their uncertainty, in process; the filters, the twins and the commands on whole recordings are left to the
 # first pass (the run must stay within its time). Arguments go to pytest as given, in one process.
 if [ $# -gt 0 ]; then
     exec python -m pytest "$@"
 fi
-cores=$(nproc)
-workers=(-n $(( cores + 1 < 4 ? cores + 1 : 4 )) --dist loadfile)
+workers=(-n auto --maxprocesses 4 --dist loadfile)
 python -m pytest "${workers[@]}" --durations=60
 other=$(python scripts/other_blas.py)
 echo "second pass: numerical tests with ${other:-the same kernel} and one BLAS thread"
